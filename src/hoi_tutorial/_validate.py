@@ -1,0 +1,59 @@
+"""Input checks shared by the public functions: every failure names what was expected."""
+from __future__ import annotations
+
+from typing import Iterable, Sequence
+
+import numpy as np
+import torch
+
+__all__ = ["check_shape", "check_choice", "as_tensor", "check_finite"]
+
+
+def _fmt(shape: Sequence) -> str:
+    parts = ["..." if s is Ellipsis else ("*" if s is None else str(s)) for s in shape]
+    return "(" + ", ".join(parts) + ")"
+
+
+def check_shape(x, shape: Sequence, name: str) -> None:
+    """Raise ``ValueError`` unless ``x.shape`` matches ``shape``.
+
+    ``shape`` is a sequence of ints, ``None`` (any size) and at most one leading ``...``
+    (any number of batch dimensions), e.g. ``(..., 22, 3)``.
+    """
+    if not hasattr(x, "shape"):
+        raise TypeError(f"{name}: expected an array or tensor of shape {_fmt(shape)}, got {type(x).__name__}")
+    actual = tuple(x.shape)
+    shape = tuple(shape)
+    if shape and shape[0] is Ellipsis:
+        tail = shape[1:]
+        ok = len(actual) >= len(tail) and all(
+            s is None or s == a for s, a in zip(tail, actual[len(actual) - len(tail):])
+        )
+    else:
+        ok = len(actual) == len(shape) and all(s is None or s == a for s, a in zip(shape, actual))
+    if not ok:
+        raise ValueError(f"{name}: expected shape {_fmt(shape)}, got {actual}")
+
+
+def check_choice(value, choices: Iterable, name: str) -> None:
+    """Raise ``ValueError`` unless ``value`` is one of ``choices``."""
+    choices = list(choices)
+    if value not in choices:
+        raise ValueError(f"{name}: expected one of {choices}, got {value!r}")
+
+
+def check_finite(x, name: str) -> None:
+    """Raise ``ValueError`` when ``x`` holds NaN or infinity."""
+    arr = x.detach().cpu().numpy() if isinstance(x, torch.Tensor) else np.asarray(x)
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: expected finite values, found NaN or inf")
+
+
+def as_tensor(x, name: str, dtype=torch.float32) -> torch.Tensor:
+    """Convert an array-like to a float tensor (keeps an existing tensor's device)."""
+    if isinstance(x, torch.Tensor):
+        return x if x.dtype == dtype else x.to(dtype)
+    try:
+        return torch.as_tensor(np.asarray(x), dtype=dtype)
+    except Exception as exc:  # pragma: no cover - message path
+        raise TypeError(f"{name}: expected an array-like of numbers, got {type(x).__name__}") from exc

@@ -1,0 +1,26 @@
+"""Infrastructure every chapter shares: scale presets, seeding, device choice, the artifact
+cache, a model-agnostic training loop and paper-vs-ours tables."""
+from .cache import (
+    CorruptArtifactWarning,
+    artifact_key,
+    artifact_path,
+    cache_dir,
+    clear_cache,
+    load_or_build,
+    state_dict_to_cpu,
+)
+from .device import choose_device
+from .presets import SCALES, ScalePreset, by_scale, check_scale, preset
+from .seeding import check_seed, rng, seed_everything
+from .tables import format_seconds, side_by_side
+from .training import TrainerConfig, TrainResult, learning_rate_factor, move_to_device, train
+
+__all__ = [
+    "SCALES", "ScalePreset", "by_scale", "check_scale", "preset",
+    "check_seed", "rng", "seed_everything",
+    "choose_device",
+    "CorruptArtifactWarning", "artifact_key", "artifact_path", "cache_dir", "clear_cache",
+    "load_or_build", "state_dict_to_cpu",
+    "TrainerConfig", "TrainResult", "learning_rate_factor", "move_to_device", "train",
+    "format_seconds", "side_by_side",
+]

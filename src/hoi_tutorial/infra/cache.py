@@ -1,0 +1,422 @@
+"""The artifact cache: build a data set or train a model once, reload it afterwards.
+
+An artifact is stored under a key made from its configuration *and* the source code that
+produced it, so changing either one rebuilds it instead of reusing a stale file. Files are
+written atomically (a temporary file in the same folder, then ``os.replace``), loaded with
+``torch.load(..., weights_only=True)`` (no arbitrary pickle is ever executed), and verified
+(key and checksum); a file that fails any check is reported and rebuilt.
+
+The folder is ``$HOI_CACHE`` when that is set, else ``$XDG_CACHE_HOME/hoi_tutorial``, else
+``~/.cache/hoi_tutorial``.
+
+Typical use in a chapter::
+
+    from hoi_tutorial.infra import load_or_build, state_dict_to_cpu
+    from hoi_tutorial.world import mocap
+
+    clips = load_or_build("toy_mocap", cfg, lambda: mocap.generate(cfg, seed=SEED),
+                          code=(mocap,))
+
+    model = SitModel(model_cfg)
+    state = load_or_build("nifty_sit_model", (model_cfg, train_cfg),
+                          lambda: state_dict_to_cpu(train_sit_model(model_cfg, train_cfg, clips)),
+                          code=(hoi_tutorial.nifty, hoi_tutorial.nn))
+    model.load_state_dict(state)
+
+``code`` takes functions, classes and modules; a package stands for every ``.py`` file in
+it. ``build`` is always part of ``code``. Artifacts are nested dicts, lists and tuples of
+torch tensors, numpy arrays and python scalars / strings / ``None``; what comes back is
+always on the CPU and identical whether it was just built or loaded.
+"""
+from __future__ import annotations
+
+import contextlib
+import copy
+import dataclasses
+import functools
+import hashlib
+import inspect
+import json
+import os
+import pathlib
+import re
+import tempfile
+import time
+import types
+import warnings
+from collections import OrderedDict
+from typing import Any, Callable, Iterable
+
+import numpy as np
+import torch
+
+__all__ = [
+    "CorruptArtifactWarning",
+    "cache_dir",
+    "artifact_key",
+    "artifact_path",
+    "load_or_build",
+    "clear_cache",
+    "state_dict_to_cpu",
+]
+
+FORMAT = 1
+_NUMPY_TAG = "__hoi_numpy__"
+_NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,99}$")
+_PRIMITIVES = (bool, int, float, str, bytes, type(None))
+
+
+class CorruptArtifactWarning(UserWarning):
+    """A cached artifact could not be loaded or verified and is being rebuilt."""
+
+
+# ----------------------------------------------------------------------------------------------
+# where
+
+
+def cache_dir() -> pathlib.Path:
+    """The cache folder, created on demand (``$HOI_CACHE``, read at call time, wins)."""
+    override = os.environ.get("HOI_CACHE")
+    if override:
+        folder = pathlib.Path(override).expanduser()
+    else:
+        base = os.environ.get("XDG_CACHE_HOME") or os.path.join("~", ".cache")
+        folder = pathlib.Path(base).expanduser() / "hoi_tutorial"
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def _check_name(name) -> str:
+    if not isinstance(name, str) or not _NAME_PATTERN.match(name):
+        raise ValueError(
+            "name: expected an identifier-like string (letters, digits and '_', not starting "
+            f"with a digit, at most 100 characters), got {name!r}"
+        )
+    return name
+
+
+# ----------------------------------------------------------------------------------------------
+# the key
+
+
+def _canonical(obj, where: str):
+    """``obj`` as plain JSON values (dataclasses as dicts, tuples as lists, numpy as python)."""
+    if isinstance(obj, np.generic):
+        return _canonical(obj.item(), where)
+    if obj is None or isinstance(obj, (bool, int, float, str)):
+        return obj
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return _canonical(dataclasses.asdict(obj), where)
+    if isinstance(obj, dict):
+        out = {}
+        for key, value in obj.items():
+            if not isinstance(key, str):
+                raise TypeError(f"{where}: dict keys must be str, got {type(key).__name__} {key!r}")
+            out[key] = _canonical(value, f"{where}[{key!r}]")
+        return out
+    if isinstance(obj, (list, tuple)):
+        return [_canonical(value, f"{where}[{i}]") for i, value in enumerate(obj)]
+    if isinstance(obj, np.ndarray):
+        return {"__ndarray__": str(obj.dtype), "shape": list(obj.shape), "data": obj.tolist()}
+    if isinstance(obj, torch.Tensor):
+        t = obj.detach().cpu()
+        return {"__tensor__": str(t.dtype), "shape": list(t.shape), "data": t.tolist()}
+    raise TypeError(
+        f"{where}: cannot put a {type(obj).__name__} into an artifact key; use numbers, strings, "
+        "None, lists, tuples, dicts, dataclasses or numpy / torch arrays"
+    )
+
+
+def _code_fingerprint(code: types.CodeType) -> str:
+    """Bytecode and constants of a function (when its source text cannot be found)."""
+    parts = [code.co_code.hex(), repr(code.co_names), repr(code.co_varnames)]
+    for const in code.co_consts:
+        if isinstance(const, types.CodeType):
+            parts.append(_code_fingerprint(const))
+        elif isinstance(const, frozenset):
+            parts.append(repr(sorted(map(repr, const))))
+        else:
+            parts.append(repr(const))
+    return "\n".join(parts)
+
+
+def _module_text(module: types.ModuleType) -> bytes:
+    """The file text of a module; every ``.py`` file (with its relative path) for a package."""
+    if hasattr(module, "__path__"):
+        chunks = []
+        for root in sorted(set(module.__path__)):
+            root_path = pathlib.Path(root)
+            for file in sorted(root_path.rglob("*.py")):
+                if "__pycache__" in file.parts:
+                    continue
+                chunks.append(file.relative_to(root_path).as_posix().encode() + b"\0")
+                chunks.append(file.read_bytes() + b"\0")
+        if chunks:
+            return b"".join(chunks)
+    try:
+        filename = inspect.getsourcefile(module) or module.__file__
+    except TypeError:
+        filename = None
+    if not filename or not os.path.exists(filename):
+        raise TypeError(f"code: module {module.__name__!r} has no source file to hash")
+    return pathlib.Path(filename).read_bytes()
+
+
+def _source_text(item) -> bytes:
+    if isinstance(item, types.ModuleType):
+        return _module_text(item)
+    if isinstance(item, functools.partial):
+        return _source_text(item.func)
+    if isinstance(item, types.MethodType):
+        return _source_text(item.__func__)
+    if isinstance(item, (types.FunctionType, type)):
+        try:
+            return inspect.getsource(item).encode()
+        except (OSError, TypeError):
+            pass
+        # No source text (an interactive session, exec): fall back to the compiled code.
+        if isinstance(item, types.FunctionType):
+            return _code_fingerprint(item.__code__).encode()
+        parts = [item.__qualname__]
+        for attr, value in sorted(vars(item).items()):
+            func = getattr(value, "__func__", value)
+            if isinstance(func, types.FunctionType):
+                parts.append(attr + "\n" + _code_fingerprint(func.__code__))
+        return "\n".join(parts).encode()
+    if callable(item):
+        if isinstance(item, types.BuiltinFunctionType):
+            return f"builtin:{item.__module__}.{item.__qualname__}".encode()
+        return _source_text(type(item))
+    raise TypeError(
+        f"code: expected functions, classes or modules, got {type(item).__name__} {item!r}"
+    )
+
+
+def artifact_key(name: str, config, code: Iterable = ()) -> str:
+    """The sha256 hex key of an artifact: its name, configuration and producing source code.
+
+    Args:
+        name: identifier-like artifact name (``"nifty_sit_model"``).
+        config: numbers, strings, ``None``, lists, tuples, dicts with str keys, dataclasses
+            and small numpy / torch arrays, in any nesting; anything else is a ``TypeError``.
+        code: functions, classes and modules whose source text produced the artifact (a
+            package counts with all its ``.py`` files); order does not matter.
+    """
+    _check_name(name)
+    digests = sorted({hashlib.sha256(_source_text(item)).hexdigest() for item in code})
+    document = {"format": FORMAT, "name": name, "config": _canonical(config, "config"),
+                "code": digests}
+    text = json.dumps(document, sort_keys=True, separators=(",", ":"), allow_nan=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def artifact_path(name: str, key: str) -> pathlib.Path:
+    """Where the artifact ``name`` with ``key`` (from :func:`artifact_key`) is stored."""
+    return cache_dir() / f"{_check_name(name)}-{key[:16]}.pt"
+
+
+# ----------------------------------------------------------------------------------------------
+# encoding for weights_only loading
+
+
+def _encode(obj, where: str):
+    """Replace numpy arrays by tagged uint8 tensors; tensors go to the CPU, detached."""
+    if isinstance(obj, torch.Tensor):
+        t = obj.detach().cpu()
+        if t.layout != torch.strided:
+            raise TypeError(f"{where}: only dense tensors can be cached, got layout {t.layout}")
+        if t.untyped_storage().nbytes() != t.numel() * t.element_size():
+            t = t.contiguous().clone()  # a view: store its own elements, not the whole base
+        return t
+    if isinstance(obj, (np.ndarray, np.generic)):
+        array = np.asarray(obj)
+        if array.dtype.hasobject:
+            raise TypeError(f"{where}: numpy arrays of python objects cannot be cached safely")
+        raw = array.tobytes()
+        data = torch.frombuffer(bytearray(raw), dtype=torch.uint8) if raw else torch.empty(0, dtype=torch.uint8)
+        return {
+            _NUMPY_TAG: FORMAT,
+            "descr": np.lib.format.dtype_to_descr(array.dtype),
+            "shape": list(array.shape),
+            "scalar": isinstance(obj, np.generic),
+            "data": data,
+        }
+    if isinstance(obj, _PRIMITIVES):
+        return obj
+    if isinstance(obj, dict):
+        if _NUMPY_TAG in obj:
+            raise ValueError(f"{where}: the key {_NUMPY_TAG!r} is reserved by the cache")
+        out = OrderedDict() if isinstance(obj, OrderedDict) else {}
+        for key, value in obj.items():
+            if not isinstance(key, _PRIMITIVES):
+                raise TypeError(f"{where}: dict keys must be str, int, float, bool or None, "
+                                f"got {type(key).__name__}")
+            out[key] = _encode(value, f"{where}[{key!r}]")
+        if hasattr(obj, "_metadata"):  # a module state_dict's version information
+            out._metadata = copy.deepcopy(obj._metadata)
+        return out
+    if type(obj) is list:
+        return [_encode(value, f"{where}[{i}]") for i, value in enumerate(obj)]
+    if type(obj) is tuple:
+        return tuple(_encode(value, f"{where}[{i}]") for i, value in enumerate(obj))
+    raise TypeError(
+        f"{where}: cannot cache a {type(obj).__name__}; artifacts are dicts, lists and tuples "
+        "of tensors, numpy arrays, numbers, strings and None"
+    )
+
+
+def _decode(obj):
+    if isinstance(obj, dict):
+        if _NUMPY_TAG in obj:
+            dtype = np.lib.format.descr_to_dtype(obj["descr"])
+            raw = obj["data"].numpy()
+            array = np.frombuffer(raw.tobytes(), dtype=dtype).reshape(obj["shape"]).copy()
+            return array[()] if obj["scalar"] else array
+        out = OrderedDict() if isinstance(obj, OrderedDict) else {}
+        for key, value in obj.items():
+            out[key] = _decode(value)
+        if hasattr(obj, "_metadata"):
+            out._metadata = obj._metadata
+        return out
+    if isinstance(obj, list):
+        return [_decode(value) for value in obj]
+    if isinstance(obj, tuple):
+        return tuple(_decode(value) for value in obj)
+    return obj
+
+
+def _checksum(payload) -> str:
+    """sha256 over the encoded payload: structure, tensor dtypes, shapes and bytes."""
+    digest = hashlib.sha256()
+
+    def walk(obj):
+        if isinstance(obj, torch.Tensor):
+            digest.update(f"T{obj.dtype}{tuple(obj.shape)}".encode())
+            flat = obj.contiguous().reshape(-1)
+            if flat.numel():
+                digest.update(flat.view(torch.uint8).numpy())
+        elif isinstance(obj, dict):
+            digest.update(f"D{len(obj)}".encode())
+            for key, value in obj.items():
+                digest.update(repr(key).encode())
+                walk(value)
+        elif isinstance(obj, (list, tuple)):
+            digest.update(f"{'L' if isinstance(obj, list) else 'U'}{len(obj)}".encode())
+            for value in obj:
+                walk(value)
+        else:
+            digest.update(f"P{type(obj).__name__}:{obj!r}".encode())
+
+    walk(payload)
+    return digest.hexdigest()
+
+
+# ----------------------------------------------------------------------------------------------
+# load, save, build
+
+
+def _format_bytes(size: int) -> str:
+    if size >= 1e6:
+        return f"{size / 1e6:.1f} MB"
+    return f"{size / 1e3:.1f} kB"
+
+
+def _load_verified(path: pathlib.Path, key: str):
+    """Return ``(artifact, None)`` or ``(None, reason)`` when the file fails a check."""
+    try:
+        blob = torch.load(path, map_location="cpu", weights_only=False)
+    except Exception as exc:  # truncated file, bad zip, forbidden pickle: all mean rebuild
+        first_line = (str(exc).strip().splitlines() or [""])[0][:200]
+        return None, f"{type(exc).__name__}: {first_line}"
+    if not isinstance(blob, dict) or blob.get("format") != FORMAT:
+        return None, "unknown file format"
+    if blob.get("key") != key:
+        return None, "key mismatch"
+    try:
+        if _checksum(blob.get("payload")) != blob.get("checksum"):
+            return None, "checksum mismatch"
+        return _decode(blob["payload"]), None
+    except Exception as exc:
+        return None, f"{type(exc).__name__}: {exc}"
+
+
+def _save_atomic(blob, path: pathlib.Path) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            torch.save(blob, handle)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def load_or_build(name: str, config, build: Callable[[], Any], code: Iterable = (), *,
+                  verbose: bool = True):
+    """Load the artifact ``name`` for ``config`` from the cache, or ``build()`` and store it.
+
+    Args:
+        name: identifier-like artifact name; the file is ``<cache_dir>/<name>-<key[:16]>.pt``.
+        config: everything the artifact depends on (see :func:`artifact_key`).
+        build: called with no arguments when there is no valid cached copy; returns the
+            artifact (nested dicts / lists / tuples of tensors, numpy arrays, numbers, strings).
+        code: functions, classes and modules that produce it; ``build`` is always added.
+        verbose: print one line saying whether the artifact was loaded or built.
+
+    Returns:
+        the artifact, tensors on the CPU and detached, numpy dtypes and shapes preserved.
+    """
+    _check_name(name)
+    key = artifact_key(name, config, (*tuple(code), build))
+    path = artifact_path(name, key)
+    if path.exists():
+        artifact, reason = _load_verified(path, key)
+        if reason is None:
+            if verbose:
+                print(f"[cache] loaded {name} ({_format_bytes(path.stat().st_size)})")
+            return artifact
+        warnings.warn(f"rebuilding corrupt artifact {path} ({reason})", CorruptArtifactWarning,
+                      stacklevel=2)
+    if verbose:
+        print(f"[cache] building {name} ...")
+    start = time.perf_counter()
+    payload = _encode(build(), "artifact")
+    blob = {"format": FORMAT, "key": key, "payload": payload, "checksum": _checksum(payload)}
+    try:
+        _save_atomic(blob, path)
+    except OSError as exc:
+        warnings.warn(f"could not save artifact {path}: {exc}", RuntimeWarning, stacklevel=2)
+    else:
+        if verbose:
+            print(f"[cache] built {name} in {time.perf_counter() - start:.1f} s "
+                  f"({_format_bytes(path.stat().st_size)})")
+    return _decode(payload)
+
+
+def clear_cache(name: str | None = None) -> int:
+    """Delete the cached artifacts called ``name`` (all artifacts when ``None``).
+
+    Only this cache's own files are touched. Returns the number of files removed.
+    """
+    pattern = re.compile(
+        rf"^\.?{re.escape(_check_name(name)) if name is not None else '[A-Za-z_][A-Za-z0-9_]*'}"
+        r"(-[0-9a-f]{16}\.pt|-[0-9a-f]{16}\..*\.tmp)$"
+    )
+    removed = 0
+    for file in cache_dir().iterdir():
+        if file.is_file() and pattern.match(file.name):
+            file.unlink()
+            removed += 1
+    return removed
+
+
+def state_dict_to_cpu(module: torch.nn.Module) -> "OrderedDict[str, torch.Tensor]":
+    """A detached CPU copy of ``module.state_dict()`` (safe to cache; training on is harmless)."""
+    state = module.state_dict()
+    out = OrderedDict((key, value.detach().to("cpu", copy=True)) for key, value in state.items())
+    if hasattr(state, "_metadata"):
+        out._metadata = copy.deepcopy(state._metadata)
+    return out

@@ -1,0 +1,54 @@
+"""Device choice: the GPU when there is one, the CPU otherwise, and clear errors in between."""
+from __future__ import annotations
+
+import re
+
+import torch
+
+__all__ = ["choose_device"]
+
+_PATTERN = re.compile(r"^(auto|cpu|mps|cuda(:\d+)?)$")
+
+
+def _mps_available() -> bool:
+    backend = getattr(torch.backends, "mps", None)
+    return bool(backend is not None and backend.is_available())
+
+
+def choose_device(device="auto") -> torch.device:
+    """Turn ``"auto"``, ``"cpu"``, ``"cuda"``, ``"cuda:N"`` or ``"mps"`` into a ``torch.device``.
+
+    ``"auto"`` picks CUDA when it is available, else the CPU (MPS is used only when asked
+    for: some of its kernels are not deterministic). A ``torch.device`` is accepted as well.
+
+    Raises:
+        ValueError: for a string that names no device.
+        RuntimeError: when the requested device is not available on this machine.
+    """
+    if isinstance(device, torch.device):
+        device = str(device)
+    if not isinstance(device, str) or not _PATTERN.match(device.strip().lower()):
+        raise ValueError(
+            f"device: expected 'auto', 'cpu', 'cuda', 'cuda:N' or 'mps', got {device!r}"
+        )
+    device = device.strip().lower()
+    if device == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if device.startswith("cuda"):
+        if not torch.cuda.is_available():
+            raise RuntimeError(
+                f"device {device!r} was requested but CUDA is not available on this machine; "
+                "use device='auto' (falls back to the CPU) or device='cpu'"
+            )
+        index = int(device.split(":")[1]) if ":" in device else None
+        if index is not None and index >= torch.cuda.device_count():
+            raise RuntimeError(
+                f"device {device!r} was requested but this machine has "
+                f"{torch.cuda.device_count()} CUDA device(s); use 'cuda:0' or device='auto'"
+            )
+    if device == "mps" and not _mps_available():
+        raise RuntimeError(
+            "device 'mps' was requested but MPS is not available on this machine; "
+            "use device='auto' or device='cpu'"
+        )
+    return torch.device(device)

@@ -1,0 +1,244 @@
+"""A small training loop that knows nothing about the model or the data.
+
+The caller gives three things: the model, ``sample_batch(step, generator) -> batch`` and
+``loss_fn(model, batch) -> loss`` (or ``(loss, {"name": float, ...})``). Everything else —
+optimiser, learning-rate schedule, gradient clipping, device, progress bar, timing — is set by
+a :class:`TrainerConfig`::
+
+    config = TrainerConfig(steps=2000, batch_size=64, lr=1e-3, lr_schedule="cosine")
+    result = train(model, lambda step, g: dataset.sample(config.batch_size, g),
+                   lambda model, batch: F.mse_loss(model(batch["x"]), batch["y"]), config)
+    result.plot()
+
+Runs are repeatable: batches are drawn with a ``torch.Generator`` seeded from
+``config.seed``, and the global torch random state (used by dropout) is seeded inside the
+loop and restored afterwards, so two CPU runs from the same initial model are bit-identical.
+"""
+from __future__ import annotations
+
+import math
+import time
+from collections import defaultdict
+from dataclasses import dataclass, field
+from typing import Any, Callable, Optional, Sequence
+
+import torch
+from tqdm.auto import tqdm
+
+from .._validate import check_choice
+from .device import choose_device
+from .seeding import check_seed
+
+__all__ = ["TrainerConfig", "TrainResult", "train", "learning_rate_factor", "move_to_device"]
+
+LR_SCHEDULES = ("constant", "cosine", "onecycle")
+OPTIMIZERS = ("adamw", "adam")
+
+
+@dataclass
+class TrainerConfig:
+    """How to optimise (not what): the knobs of :func:`train`.
+
+    Attributes:
+        steps: optimiser steps.
+        batch_size: batch size; read by the caller's ``sample_batch`` (the trainer draws no data).
+        lr: peak learning rate.
+        weight_decay: decoupled weight decay for AdamW, L2 penalty for Adam.
+        grad_clip: clip the global gradient norm to this value; ``None`` for no clipping.
+        lr_schedule: ``"constant"`` (after warm-up), ``"cosine"`` (warm-up, then cosine decay to
+            0) or ``"onecycle"`` (the learning-rate part of the one-cycle policy, as NIFTY's
+            interaction field uses: from lr/25 up to lr, then down to lr/25e4).
+        warmup_steps: linear warm-up steps (for ``"onecycle"``: the rising phase, 30 % of
+            ``steps`` when 0).
+        log_every: update the progress bar's loss every this many steps.
+        device: ``"auto"``, ``"cpu"``, ``"cuda"``, ``"cuda:N"`` or ``"mps"``.
+        progress: show a progress bar.
+        seed: seeds the batch generator and the random state used inside the model (dropout).
+        optimizer: ``"adamw"`` or ``"adam"``.
+    """
+
+    steps: int = 1000
+    batch_size: int = 64
+    lr: float = 1e-3
+    weight_decay: float = 0.0
+    grad_clip: Optional[float] = None
+    lr_schedule: str = "constant"
+    warmup_steps: int = 0
+    log_every: int = 50
+    device: str = "auto"
+    progress: bool = True
+    seed: int = 0
+    optimizer: str = "adamw"
+
+    def __post_init__(self):
+        check_choice(self.lr_schedule, LR_SCHEDULES, "lr_schedule")
+        check_choice(self.optimizer, OPTIMIZERS, "optimizer")
+        for name in ("steps", "batch_size", "log_every"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+                raise ValueError(f"{name}: expected a positive int, got {value!r}")
+        if not isinstance(self.warmup_steps, int) or not 0 <= self.warmup_steps <= self.steps:
+            raise ValueError(f"warmup_steps: expected an int in [0, steps={self.steps}], "
+                             f"got {self.warmup_steps!r}")
+        if not self.lr > 0:
+            raise ValueError(f"lr: expected a positive number, got {self.lr!r}")
+        if not self.weight_decay >= 0:
+            raise ValueError(f"weight_decay: expected a number >= 0, got {self.weight_decay!r}")
+        if self.grad_clip is not None and not self.grad_clip > 0:
+            raise ValueError(f"grad_clip: expected None or a positive number, got {self.grad_clip!r}")
+        check_seed(self.seed, "seed")
+
+
+@dataclass
+class TrainResult:
+    """What a training run leaves behind.
+
+    Attributes:
+        losses: the loss at every step.
+        seconds: wall-clock time of the loop.
+        extra: every value ``loss_fn`` reported besides the loss, one list per name.
+    """
+
+    losses: list = field(default_factory=list)
+    seconds: float = 0.0
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def final_loss(self) -> float:
+        """Mean loss over the last 5 % of steps (at least one step)."""
+        tail = self.losses[-max(1, len(self.losses) // 20):]
+        return sum(tail) / len(tail)
+
+    def plot(self, ax=None, label: str = "loss"):
+        """Draw the loss curve (log y axis; a moving average on top when the run is long)."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(5, 3))
+        steps = range(len(self.losses))
+        line, = ax.plot(steps, self.losses, lw=0.8, alpha=0.4 if len(self.losses) > 50 else 1.0,
+                        label=label)
+        if len(self.losses) > 50:
+            window = max(5, len(self.losses) // 50)
+            kernel = torch.ones(1, 1, window) / window
+            smooth = torch.nn.functional.conv1d(torch.tensor(self.losses).view(1, 1, -1), kernel)
+            ax.plot(range(window - 1, len(self.losses)), smooth.view(-1).tolist(),
+                    color=line.get_color(), lw=1.5, label=f"{label} (moving average)")
+        ax.set_yscale("log")
+        ax.set_xlabel("step")
+        ax.set_ylabel("loss")
+        ax.legend(frameon=False)
+        return ax
+
+
+def learning_rate_factor(schedule: str, step: int, steps: int, warmup_steps: int = 0) -> float:
+    """The multiplier on the peak learning rate at ``step`` (0-based) of ``steps``."""
+    check_choice(schedule, LR_SCHEDULES, "lr_schedule")
+    if schedule == "onecycle":
+        rise = warmup_steps or max(1, round(0.3 * steps))
+        start, end = 1.0 / 25.0, 1.0 / 25e4
+        if step < rise:
+            t = step / rise
+            return start + (1.0 - start) * 0.5 * (1.0 - math.cos(math.pi * t))
+        t = min(1.0, (step - rise) / max(1, steps - rise))
+        return end + (1.0 - end) * 0.5 * (1.0 + math.cos(math.pi * t))
+    if step < warmup_steps:
+        return (step + 1) / warmup_steps
+    if schedule == "constant":
+        return 1.0
+    t = min(1.0, (step - warmup_steps) / max(1, steps - warmup_steps))
+    return 0.5 * (1.0 + math.cos(math.pi * t))
+
+
+def move_to_device(batch, device: torch.device):
+    """Move every tensor in a (nested) dict / list / tuple to ``device``; others stay as they are."""
+    if isinstance(batch, torch.Tensor):
+        return batch.to(device)
+    if isinstance(batch, dict):
+        return type(batch)((key, move_to_device(value, device)) for key, value in batch.items())
+    if isinstance(batch, tuple) and hasattr(batch, "_fields"):
+        return type(batch)(*(move_to_device(value, device) for value in batch))
+    if isinstance(batch, (list, tuple)):
+        return type(batch)(move_to_device(value, device) for value in batch)
+    return batch
+
+
+def _make_optimizer(parameters, config: TrainerConfig) -> torch.optim.Optimizer:
+    if config.optimizer == "adamw":
+        return torch.optim.AdamW(parameters, lr=config.lr, weight_decay=config.weight_decay)
+    return torch.optim.Adam(parameters, lr=config.lr, weight_decay=config.weight_decay)
+
+
+def train(model: torch.nn.Module, sample_batch: Callable[[int, torch.Generator], Any],
+          loss_fn: Callable[[torch.nn.Module, Any], Any], config: TrainerConfig, *,
+          callbacks: Sequence[Callable] = ()) -> TrainResult:
+    """Optimise ``model`` for ``config.steps`` steps; the model is trained in place.
+
+    Args:
+        model: any ``torch.nn.Module``; moved to ``config.device``.
+        sample_batch: ``sample_batch(step, generator) -> batch`` draws one batch (a tensor, or a
+            dict / list / tuple of them) using the CPU ``torch.Generator`` it is given.
+        loss_fn: ``loss_fn(model, batch)`` returns a scalar loss tensor, or ``(loss, logs)``
+            where ``logs`` maps names to floats (collected in ``TrainResult.extra``).
+        config: the optimisation settings.
+        callbacks: each is called as ``callback(step, model, loss, logs)`` after every step;
+            returning ``True`` stops training.
+
+    Returns:
+        a :class:`TrainResult` with the per-step losses, wall-clock seconds and extra logs.
+
+    Raises:
+        ValueError: when the loss is not a scalar. FloatingPointError: when it is NaN or inf.
+    """
+    if not isinstance(config, TrainerConfig):
+        raise TypeError(f"config: expected a TrainerConfig, got {type(config).__name__}")
+    device = choose_device(config.device)
+    was_training = model.training
+    model.to(device).train()
+    parameters = [p for p in model.parameters() if p.requires_grad]
+    if not parameters:
+        raise ValueError("model: expected at least one parameter that requires grad")
+    optimizer = _make_optimizer(parameters, config)
+    scheduler = torch.optim.lr_scheduler.LambdaLR(
+        optimizer, lambda step: learning_rate_factor(config.lr_schedule, step, config.steps,
+                                                     config.warmup_steps))
+    generator = torch.Generator().manual_seed(config.seed)
+    result = TrainResult()
+    extra = defaultdict(list)
+    cuda_devices = [device] if device.type == "cuda" else []
+    start = time.perf_counter()
+    # Seed the global state the model's own randomness reads (dropout), then put it back.
+    with torch.random.fork_rng(devices=cuda_devices):
+        torch.manual_seed(config.seed)
+        bar = tqdm(range(config.steps), disable=not config.progress, leave=False,
+                   desc=type(model).__name__)
+        for step in bar:
+            batch = move_to_device(sample_batch(step, generator), device)
+            output = loss_fn(model, batch)
+            loss, logs = output if isinstance(output, tuple) else (output, {})
+            if not isinstance(loss, torch.Tensor) or loss.ndim != 0:
+                shape = tuple(loss.shape) if isinstance(loss, torch.Tensor) else type(loss).__name__
+                raise ValueError(f"loss_fn: expected a scalar tensor, got {shape}")
+            value = loss.item()
+            if not math.isfinite(value):
+                raise FloatingPointError(f"loss became {value} at step {step}")
+            optimizer.zero_grad(set_to_none=True)
+            loss.backward()
+            if config.grad_clip is not None:
+                torch.nn.utils.clip_grad_norm_(parameters, config.grad_clip)
+            optimizer.step()
+            scheduler.step()
+            result.losses.append(value)
+            logs = {name: float(v) for name, v in logs.items()}
+            for name, v in logs.items():
+                extra[name].append(v)
+            if step % config.log_every == 0 or step == config.steps - 1:
+                bar.set_postfix(loss=f"{value:.4g}")
+            stops = [callback(step, model, value, logs) is True for callback in callbacks]
+            if any(stops):
+                break
+        bar.close()
+    result.seconds = time.perf_counter() - start
+    result.extra = dict(extra)
+    model.train(was_training)
+    return result

@@ -1,0 +1,22 @@
+"""Shared test set-up: headless plotting, a fast hypothesis profile, an isolated artifact cache."""
+import os
+
+# Set before any test imports matplotlib or pyvista, so nothing tries to open a window.
+os.environ.setdefault("MPLBACKEND", "Agg")
+os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
+
+import pytest  # noqa: E402
+from hypothesis import settings  # noqa: E402
+
+# Property tests must stay fast on two CPU cores; torch's first call is slow, so no deadline.
+settings.register_profile("fast", deadline=None, max_examples=25)
+settings.load_profile("fast")
+
+
+@pytest.fixture
+def tmp_cache(tmp_path, monkeypatch):
+    """Point the artifact cache (``HOI_CACHE``) at an empty per-test folder and return it."""
+    cache_dir = tmp_path / "hoi_cache"
+    cache_dir.mkdir()
+    monkeypatch.setenv("HOI_CACHE", str(cache_dir))
+    return cache_dir

@@ -1,0 +1,519 @@
+"""Tests for hoi_tutorial.infra: presets, seeding, device, artifact cache, trainer, tables."""
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import random
+import sys
+import warnings
+
+import numpy as np
+import pytest
+import torch
+
+from hoi_tutorial.infra import (
+    SCALES,
+    CorruptArtifactWarning,
+    TrainerConfig,
+    artifact_key,
+    by_scale,
+    cache_dir,
+    check_scale,
+    choose_device,
+    clear_cache,
+    format_seconds,
+    learning_rate_factor,
+    load_or_build,
+    preset,
+    rng,
+    seed_everything,
+    side_by_side,
+    state_dict_to_cpu,
+    train,
+)
+
+
+# ---------------------------------------------------------------------------------- presets
+
+
+def test_check_scale_accepts_the_three_scales_and_names_them_in_the_error():
+    assert [check_scale(s) for s in SCALES] == ["toy", "small", "paper"]
+    with pytest.raises(ValueError) as err:
+        check_scale("huge")
+    assert str(err.value) == "scale: expected one of ['toy', 'small', 'paper'], got 'huge'"
+
+
+def test_by_scale_picks_the_matching_value():
+    assert [by_scale(s, toy=1, small=2, paper=3) for s in SCALES] == [1, 2, 3]
+    with pytest.raises(ValueError, match="scale"):
+        by_scale("tiny", toy=1, small=2, paper=3)
+
+
+def test_preset_paper_values_are_niftys():
+    paper = preset("paper")
+    assert (paper.model_width, paper.model_layers, paper.diffusion_steps, paper.max_frames,
+            paper.eval_scenes, paper.batch_size) == (512, 8, 1000, 150, 500, 32)
+    toy = preset("toy")
+    assert toy.name == "toy" and toy.model_width < paper.model_width
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        toy.model_width = 3
+
+
+# ---------------------------------------------------------------------------------- seeding
+
+
+@pytest.fixture
+def restore_determinism():
+    enabled = torch.are_deterministic_algorithms_enabled()
+    warn_only = torch.is_deterministic_algorithms_warn_only_enabled()
+    yield
+    torch.use_deterministic_algorithms(enabled, warn_only=warn_only)
+
+
+def _global_draws():
+    return random.random(), np.random.rand(3), torch.rand(3)
+
+
+def test_seed_everything_repeats_every_global_draw(restore_determinism):
+    g1 = seed_everything(7)
+    first = _global_draws()
+    a = torch.rand(4, generator=g1)
+    g2 = seed_everything(7)
+    second = _global_draws()
+    b = torch.rand(4, generator=g2)
+    assert first[0] == second[0]
+    np.testing.assert_array_equal(first[1], second[1])
+    assert torch.equal(first[2], second[2]) and torch.equal(a, b)
+    assert torch.are_deterministic_algorithms_enabled()
+    seed_everything(8)
+    assert not np.array_equal(np.random.rand(3), first[1])
+
+
+def test_seed_validation(restore_determinism):
+    with pytest.raises(ValueError, match="seed"):
+        seed_everything(-1)
+    with pytest.raises(TypeError, match="seed"):
+        seed_everything(1.5)
+    with pytest.raises(TypeError, match="seed"):
+        seed_everything(True)
+    assert isinstance(seed_everything(np.int64(3)), torch.Generator)
+
+
+def test_rng_is_repeatable_and_passes_generators_through():
+    assert np.array_equal(rng(3).random(5), rng(3).random(5))
+    g = np.random.default_rng(0)
+    assert rng(g) is g
+    with pytest.raises(ValueError):
+        rng(-2)
+
+
+# ---------------------------------------------------------------------------------- device
+
+
+def test_choose_device(monkeypatch):
+    assert choose_device("cpu") == torch.device("cpu")
+    expected = "cuda" if torch.cuda.is_available() else "cpu"
+    assert choose_device().type == expected
+    with pytest.raises(ValueError, match="'gpu'"):
+        choose_device("gpu")
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    assert choose_device("auto") == torch.device("cpu")
+    for name in ("cuda", "cuda:0"):
+        with pytest.raises(RuntimeError, match="device='auto'"):
+            choose_device(name)
+    monkeypatch.setattr(torch.backends.mps, "is_available", lambda: False)
+    with pytest.raises(RuntimeError, match="mps"):
+        choose_device("mps")
+
+
+# ---------------------------------------------------------------------------------- cache
+
+
+@pytest.fixture(autouse=True)
+def isolated_cache(tmp_path, monkeypatch):
+    folder = tmp_path / "cache"
+    monkeypatch.setenv("HOI_CACHE", str(folder))
+    return folder
+
+
+@dataclasses.dataclass
+class _Config:
+    size: int = 3
+    scale: float = 0.5
+    shape: tuple = (2, 3)
+
+
+def _counting(build):
+    calls = []
+
+    def wrapped():
+        calls.append(1)
+        return build()
+
+    return wrapped, calls
+
+
+def _rich_artifact():
+    return {
+        "bool": np.array([True, False]),
+        "int64": np.arange(6, dtype=np.int64).reshape(2, 3),
+        "float32": np.linspace(0, 1, 5, dtype=np.float32),
+        "float64": np.full((2, 0, 3), 1.5),
+        "uint16": np.array([1, 65535], dtype=np.uint16),
+        "scalar": np.float32(2.5),
+        "text": np.array(["sit", "lift"]),
+        "tensor": torch.arange(12.0).reshape(3, 4)[1:],  # a view of a larger storage
+        "nested": [({"a": 1, "b": None}, torch.tensor([True])), ("x", 2.5, False)],
+    }
+
+
+def _assert_same(a, b):
+    assert type(a) is type(b), (type(a), type(b))
+    if isinstance(a, np.ndarray):
+        assert a.dtype == b.dtype and a.shape == b.shape
+        np.testing.assert_array_equal(a, b)
+    elif isinstance(a, np.generic):
+        assert a.dtype == b.dtype and a == b
+    elif isinstance(a, torch.Tensor):
+        assert a.dtype == b.dtype and torch.equal(a, b)
+    elif isinstance(a, dict):
+        assert list(a) == list(b)
+        for key in a:
+            _assert_same(a[key], b[key])
+    elif isinstance(a, (list, tuple)):
+        assert len(a) == len(b)
+        for x, y in zip(a, b):
+            _assert_same(x, y)
+    else:
+        assert a == b
+
+
+def test_build_then_load_gives_identical_content(isolated_cache, capsys):
+    build, calls = _counting(_rich_artifact)
+    built = load_or_build("rich", _Config(), build)
+    assert "[cache] building rich" in capsys.readouterr().out
+    loaded = load_or_build("rich", _Config(), build)
+    assert "[cache] loaded rich" in capsys.readouterr().out
+    assert len(calls) == 1
+    _assert_same(built, loaded)
+    _assert_same(_rich_artifact(), loaded)
+    files = list(isolated_cache.glob("rich-*.pt"))
+    assert len(files) == 1 and len(files[0].stem.split("-")[1]) == 16
+    # the stored tensor holds only the view's 8 elements, not the 12 of its base
+    assert loaded["tensor"].untyped_storage().nbytes() == 8 * 4
+    load_or_build("rich", _Config(), build, verbose=False)
+    assert capsys.readouterr().out == ""
+
+
+def test_hoi_cache_and_xdg_are_honoured(tmp_path, monkeypatch):
+    target = tmp_path / "elsewhere"
+    monkeypatch.setenv("HOI_CACHE", str(target))
+    assert cache_dir() == target and target.is_dir()
+    load_or_build("small_thing", {"n": 1}, lambda: {"x": torch.ones(2)}, verbose=False)
+    assert len(list(target.glob("small_thing-*.pt"))) == 1
+    monkeypatch.delenv("HOI_CACHE")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache_dir() == tmp_path / "xdg" / "hoi_tutorial"
+
+
+def test_changed_config_gives_a_new_key_and_a_rebuild():
+    def make():
+        return np.zeros(2)
+
+    key = artifact_key("thing", _Config(), (make,))
+    assert key == artifact_key("thing", _Config(), (make,))
+    assert key != artifact_key("thing", _Config(size=4), (make,))
+    assert key != artifact_key("thing", _Config(shape=(2, 4)), (make,))
+    assert key != artifact_key("other", _Config(), (make,))
+    # numpy scalars hash like the python numbers they hold, tuples like lists
+    assert artifact_key("thing", {"n": np.int64(3), "s": (1, 2)}, ()) == \
+        artifact_key("thing", {"n": 3, "s": [1, 2]}, ())
+    build, calls = _counting(make)
+    load_or_build("thing", _Config(), build, verbose=False)
+    load_or_build("thing", _Config(size=4), build, verbose=False)
+    load_or_build("thing", _Config(), build, verbose=False)
+    assert len(calls) == 2
+
+
+def test_key_rejects_unsupported_config_and_bad_names():
+    with pytest.raises(TypeError, match="set"):
+        artifact_key("thing", {"values": {1, 2}}, ())
+    with pytest.raises(TypeError, match="object"):
+        artifact_key("thing", {"handle": object()}, ())
+    for bad in ("has space", "../escape", "", "9lives", 3):
+        with pytest.raises(ValueError, match="name"):
+            artifact_key(bad, {}, ())
+
+
+def _producer_a():
+    return {"value": np.array([1.0])}
+
+
+def _producer_b():
+    return {"value": np.array([2.0])}
+
+
+def test_a_changed_producer_function_changes_the_key():
+    assert artifact_key("p", {}, (_producer_a,)) != artifact_key("p", {}, (_producer_b,))
+    assert load_or_build("p", {}, _producer_a, verbose=False)["value"][0] == 1.0
+    assert load_or_build("p", {}, _producer_b, verbose=False)["value"][0] == 2.0
+
+
+def _import_from(path, name):
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_an_edited_module_rebuilds(tmp_path):
+    source = tmp_path / "toy_producer.py"
+    source.write_text("import numpy as np\n\ndef make():\n    return np.arange(3)\n")
+    module = _import_from(source, "toy_producer_v1")
+    calls = []
+
+    def build():
+        calls.append(1)
+        return module.make()
+
+    first = load_or_build("produced", {"n": 3}, build, code=(module,), verbose=False)
+    again = load_or_build("produced", {"n": 3}, build, code=(module,), verbose=False)
+    np.testing.assert_array_equal(first, again)
+    assert len(calls) == 1
+    source.write_text("import numpy as np\n\ndef make():\n    return np.arange(3) * 10\n")
+    module = _import_from(source, "toy_producer_v2")
+    edited = load_or_build("produced", {"n": 3}, build, code=(module,), verbose=False)
+    assert len(calls) == 2
+    np.testing.assert_array_equal(edited, [0, 10, 20])
+
+
+@pytest.mark.parametrize("damage", ["truncate", "garbage", "empty"])
+def test_a_corrupt_file_is_detected_and_rebuilt(isolated_cache, damage):
+    build, calls = _counting(lambda: {"w": torch.randn(50, generator=torch.Generator().manual_seed(0))})
+    original = load_or_build("fragile", {}, build, verbose=False)
+    (path,) = isolated_cache.glob("fragile-*.pt")
+    data = path.read_bytes()
+    path.write_bytes({"truncate": data[: len(data) // 2], "garbage": b"not a zip file" * 10,
+                      "empty": b""}[damage])
+    with pytest.warns(CorruptArtifactWarning, match="rebuilding corrupt artifact"):
+        rebuilt = load_or_build("fragile", {}, build, verbose=False)
+    assert len(calls) == 2 and torch.equal(rebuilt["w"], original["w"])
+    assert torch.equal(load_or_build("fragile", {}, build, verbose=False)["w"], original["w"])
+    assert len(calls) == 2
+
+
+def test_checksum_and_key_mismatches_are_rebuilt(isolated_cache):
+    build, calls = _counting(lambda: {"w": torch.zeros(4)})
+    load_or_build("checked", {}, build, verbose=False)
+    (path,) = isolated_cache.glob("checked-*.pt")
+    blob = torch.load(path, weights_only=True)
+    blob["payload"]["w"] = torch.ones(4)  # the stored checksum no longer matches
+    torch.save(blob, path)
+    with pytest.warns(CorruptArtifactWarning, match="checksum"):
+        assert torch.equal(load_or_build("checked", {}, build, verbose=False)["w"], torch.zeros(4))
+    blob = torch.load(path, weights_only=True)
+    blob["key"] = "0" * 64
+    torch.save(blob, path)
+    with pytest.warns(CorruptArtifactWarning, match="key"):
+        load_or_build("checked", {}, build, verbose=False)
+    assert len(calls) == 3
+
+
+_EXECUTED = []
+
+
+def _record_execution(marker):
+    _EXECUTED.append(marker)
+    return marker
+
+
+class _Exploit:
+    def __reduce__(self):
+        return (_record_execution, ("pwned",))
+
+
+def test_an_arbitrary_pickle_is_rejected_not_executed(isolated_cache):
+    build, calls = _counting(lambda: {"safe": torch.arange(3)})
+    load_or_build("guarded", {}, build, verbose=False)
+    (path,) = isolated_cache.glob("guarded-*.pt")
+    blob = torch.load(path, weights_only=True)
+    blob["payload"] = {"safe": _Exploit()}
+    torch.save(blob, path)
+    with pytest.warns(CorruptArtifactWarning):
+        result = load_or_build("guarded", {}, build, verbose=False)
+    assert _EXECUTED == []
+    assert torch.equal(result["safe"], torch.arange(3)) and len(calls) == 2
+
+
+def test_unsupported_artifacts_raise_before_saving(isolated_cache):
+    with pytest.raises(TypeError, match="set"):
+        load_or_build("bad", {}, lambda: {"items": {1, 2}}, verbose=False)
+    with pytest.raises(TypeError, match="object"):
+        load_or_build("bad", {}, lambda: np.array([object()]), verbose=False)
+    assert list(isolated_cache.glob("bad-*")) == []
+
+
+def test_clear_cache_removes_only_the_named_artifacts(isolated_cache):
+    load_or_build("first", {}, lambda: 1, verbose=False)
+    load_or_build("first_more", {}, lambda: 2, verbose=False)
+    (isolated_cache / "notes.txt").write_text("keep me")
+    assert clear_cache("first") == 1
+    assert [p.name.split("-")[0] for p in isolated_cache.glob("*.pt")] == ["first_more"]
+    assert clear_cache() == 1
+    assert (isolated_cache / "notes.txt").exists()
+
+
+def test_model_state_round_trip():
+    torch.manual_seed(0)
+    model = torch.nn.Sequential(torch.nn.Linear(3, 4), torch.nn.BatchNorm1d(4))
+    state = load_or_build("tiny_model", {"width": 4}, lambda: state_dict_to_cpu(model),
+                          verbose=False)
+    state = load_or_build("tiny_model", {"width": 4}, lambda: state_dict_to_cpu(model),
+                          verbose=False)
+    fresh = torch.nn.Sequential(torch.nn.Linear(3, 4), torch.nn.BatchNorm1d(4))
+    fresh.load_state_dict(state)
+    for a, b in zip(model.state_dict().values(), fresh.state_dict().values()):
+        assert torch.equal(a, b)
+    assert state._metadata == model.state_dict()._metadata
+
+
+# ---------------------------------------------------------------------------------- trainer
+
+
+def _regression_problem():
+    true_w = torch.tensor([[1.5, -2.0, 0.5]])
+
+    def sample_batch(step, generator):
+        x = torch.randn(32, 3, generator=generator)
+        return {"x": x, "y": x @ true_w.T + 0.3}
+
+    def loss_fn(model, batch):
+        loss = torch.nn.functional.mse_loss(model(batch["x"]), batch["y"])
+        return loss, {"abs_bias_error": abs(model.bias.item() - 0.3)}
+
+    return sample_batch, loss_fn
+
+
+def _fresh_linear():
+    return torch.nn.Linear(3, 1).requires_grad_(True), torch.Generator().manual_seed(1)
+
+
+def _init(model, generator):
+    with torch.no_grad():
+        for p in model.parameters():
+            p.copy_(torch.randn(p.shape, generator=generator))
+    return model
+
+
+def test_linear_regression_converges_and_repeats_bit_for_bit():
+    sample_batch, loss_fn = _regression_problem()
+    config = TrainerConfig(steps=150, lr=0.05, lr_schedule="cosine", warmup_steps=10,
+                           device="cpu", progress=False, seed=3, grad_clip=10.0)
+    models, results = [], []
+    for _ in range(2):
+        model = _init(*_fresh_linear())
+        results.append(train(model, sample_batch, loss_fn, config))
+        models.append(model)
+    first = results[0]
+    assert len(first.losses) == 150 and first.seconds > 0
+    assert np.mean(first.losses[-10:]) < np.mean(first.losses[:10]) / 10
+    assert len(first.extra["abs_bias_error"]) == 150
+    assert first.losses == results[1].losses
+    for a, b in zip(models[0].parameters(), models[1].parameters()):
+        assert torch.equal(a, b)
+
+
+def test_trainer_seeds_dropout_and_restores_global_rng():
+    sample_batch, _ = _regression_problem()
+
+    def loss_fn(model, batch):
+        return torch.nn.functional.mse_loss(model(batch["x"]), batch["y"])
+
+    def make():
+        torch.manual_seed(0)
+        return torch.nn.Sequential(torch.nn.Linear(3, 16), torch.nn.Dropout(0.5),
+                                   torch.nn.Linear(16, 1))
+
+    config = TrainerConfig(steps=20, device="cpu", progress=False, optimizer="adam")
+    a, b = make(), make()
+    state_before = torch.random.get_rng_state()
+    train(a, sample_batch, loss_fn, config)
+    assert torch.equal(torch.random.get_rng_state(), state_before)
+    train(b, sample_batch, loss_fn, config)
+    for p, q in zip(a.parameters(), b.parameters()):
+        assert torch.equal(p, q)
+    assert a.training
+
+
+def test_trainer_errors_and_callbacks():
+    sample_batch, _ = _regression_problem()
+    config = TrainerConfig(steps=30, device="cpu", progress=False)
+    with pytest.raises(ValueError, match="scalar"):
+        train(torch.nn.Linear(3, 1), sample_batch,
+              lambda m, b: (m(b["x"]) - b["y"]) ** 2, config)
+    with pytest.raises(FloatingPointError, match="step 0"):
+        train(torch.nn.Linear(3, 1), sample_batch,
+              lambda m, b: m(b["x"]).sum() * float("nan"), config)
+    seen = []
+    result = train(torch.nn.Linear(3, 1), sample_batch,
+                   lambda m, b: torch.nn.functional.mse_loss(m(b["x"]), b["y"]), config,
+                   callbacks=[lambda step, model, loss, logs: seen.append(step) or step == 4])
+    assert seen == [0, 1, 2, 3, 4] and len(result.losses) == 5
+    with pytest.raises(ValueError, match="lr_schedule"):
+        TrainerConfig(lr_schedule="linear")
+    with pytest.raises(ValueError, match="optimizer"):
+        TrainerConfig(optimizer="sgd")
+    with pytest.raises(ValueError, match="steps"):
+        TrainerConfig(steps=0)
+
+
+def test_learning_rate_schedules():
+    assert learning_rate_factor("constant", 50, 100) == 1.0
+    assert learning_rate_factor("constant", 0, 100, warmup_steps=10) == pytest.approx(0.1)
+    assert learning_rate_factor("cosine", 10, 110, warmup_steps=10) == pytest.approx(1.0)
+    assert learning_rate_factor("cosine", 110, 110, warmup_steps=10) == pytest.approx(0.0)
+    one = [learning_rate_factor("onecycle", s, 100) for s in range(101)]
+    assert one[0] == pytest.approx(1 / 25) and max(one) == pytest.approx(1.0)
+    assert int(np.argmax(one)) == 30 and one[-1] < 1e-4
+
+
+def test_train_result_plot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    sample_batch, loss_fn = _regression_problem()
+    result = train(torch.nn.Linear(3, 1), sample_batch, loss_fn,
+                   TrainerConfig(steps=60, device="cpu", progress=False))
+    ax = result.plot()
+    assert ax.get_yscale() == "log" and len(ax.lines) == 2
+    plt.close(ax.figure)
+
+
+# ---------------------------------------------------------------------------------- tables
+
+
+def test_side_by_side_shape_and_missing_entries():
+    pytest.importorskip("pandas")
+    paper = {"Cond. VAE": {"D2O": 0.31, "IoU": 0.12}, "NIFTY": {"D2O": 0.08, "IoU": "0.35*"}}
+    ours = {"NIFTY": {"D2O": 0.1234, "IoU": 0.3, "Skating": 0.02}, "MLP": {"D2O": 0.5}}
+    table = side_by_side(paper, ours, decimals=3, higher_is_better={"IoU": True, "D2O": False})
+    assert table.shape == (3, 6)
+    assert list(table.index) == ["Cond. VAE", "NIFTY", "MLP"]
+    assert list(table.columns.get_level_values("source")[:2]) == ["paper", "ours"]
+    assert table.loc["NIFTY", ("D2O ↓", "ours")] == "0.123"
+    assert table.loc["NIFTY", ("IoU ↑", "paper")] == "0.35*"
+    assert table.loc["Cond. VAE", ("D2O ↓", "ours")] == "—"
+    assert table.loc["MLP", ("Skating", "paper")] == "—"
+    only = side_by_side(paper, ours, columns=["IoU"])
+    assert only.shape == (3, 2)
+
+
+def test_format_seconds():
+    assert format_seconds(0.4234) == "0.42 s"
+    assert format_seconds(12.34) == "12.3 s"
+    assert format_seconds(125) == "2 min 05 s"
+    assert format_seconds(3720) == "1 h 02 min"
+    with pytest.raises(ValueError):
+        format_seconds(-1)
