@@ -4,8 +4,6 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import random
-import sys
-import warnings
 
 import numpy as np
 import pytest

@@ -324,7 +324,7 @@ def _format_bytes(size: int) -> str:
 def _load_verified(path: pathlib.Path, key: str):
     """Return ``(artifact, None)`` or ``(None, reason)`` when the file fails a check."""
     try:
-        blob = torch.load(path, map_location="cpu", weights_only=False)
+        blob = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # truncated file, bad zip, forbidden pickle: all mean rebuild
         first_line = (str(exc).strip().splitlines() or [""])[0][:200]
         return None, f"{type(exc).__name__}: {first_line}"
