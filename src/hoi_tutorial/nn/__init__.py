@@ -1,0 +1,38 @@
+"""Neural building blocks shared by the paper packages.
+
+- :mod:`.diffusion`: DDPM schedules, the forward process, the posterior, x0-parameterised
+  sampling, classifier-free guidance and reconstruction guidance (NIFTY §3.1, Eq. 2–4);
+- :mod:`.embeddings`: step, Fourier and positional embeddings;
+- :mod:`.pointnet`: a PointNet encoder for point clouds;
+- :mod:`.transformer`: an MDM/NIFTY-style transformer denoiser;
+- :mod:`.cvae`: Gaussian KL, reparameterisation, MLP;
+- :mod:`.moe`: mixture-of-experts layers with blended weights (SAMP Eq. 2).
+"""
+from .cvae import ACTIVATIONS, MLP, gaussian_kl, reparameterize
+from .diffusion import (
+    NoiseSchedule,
+    best_of_n,
+    classifier_free_x0,
+    cosine_schedule,
+    guided_x0,
+    linear_schedule,
+    p_mean_from_x0,
+    q_posterior,
+    q_sample,
+    sample,
+    training_loss,
+)
+from .embeddings import FourierFeatures, PositionalEncoding, SinusoidalEmbedding, TimestepEmbedding, sinusoid_table
+from .moe import GatingNetwork, MixtureOfExpertsLinear, MoEMLP
+from .pointnet import PointNetEncoder
+from .transformer import TransformerDenoiser
+
+__all__ = [
+    "NoiseSchedule", "cosine_schedule", "linear_schedule", "q_sample", "q_posterior", "p_mean_from_x0",
+    "classifier_free_x0", "guided_x0", "sample", "best_of_n", "training_loss",
+    "SinusoidalEmbedding", "TimestepEmbedding", "FourierFeatures", "PositionalEncoding", "sinusoid_table",
+    "PointNetEncoder",
+    "TransformerDenoiser",
+    "gaussian_kl", "reparameterize", "MLP", "ACTIVATIONS",
+    "MixtureOfExpertsLinear", "GatingNetwork", "MoEMLP",
+]

@@ -1,0 +1,227 @@
+"""Stick-figure animations of motions, embedded in a page as HTML (no ffmpeg needed).
+
+``animate_motion`` builds a matplotlib ``FuncAnimation``; ``to_html`` turns it into a
+self-contained JavaScript player (``FuncAnimation.to_jshtml``) and ``show_animation`` returns it
+as an ``IPython.display.HTML`` object, closing the figure so a notebook shows no static copy.
+Frames are subsampled (``stride``, ``max_frames``) and drawn at a modest dpi to keep the page
+small: a 5 s clip at the defaults embeds in about 1 MB.
+"""
+from __future__ import annotations
+
+import math
+from typing import Optional, Sequence
+
+import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.animation import FuncAnimation
+from matplotlib.collections import LineCollection
+from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
+
+from .._validate import check_choice
+from ..world.motion import ACTIONS
+from ..world.skeleton import NUM_JOINTS, PARENTS, joint_index
+from .plots import (
+    OBJECT_COLOR,
+    SPINE_COLOR,
+    _VIEW_AXES,
+    _VIEW_DEPTH,
+    _draw_ground_grid_3d,
+    _joints_sequence,
+    _object_mesh,
+    _set_3d_limits,
+    _style_2d_axes,
+    bone_colors,
+    plot_object_footprint,
+    project,
+)
+
+__all__ = ["animate_motion", "to_html", "show_animation"]
+
+_TRAIL_COLORS = ("#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2")
+_BONES = [(PARENTS[j], j) for j in range(1, NUM_JOINTS)]
+_MAX_OBJECT_FACES = 600  # triangles per object drawn in 3D; more are merged by vertex clustering
+
+
+def _cluster_decimate(vertices: np.ndarray, faces: np.ndarray, max_faces: int) -> tuple[np.ndarray, np.ndarray]:
+    """Fewer triangles by merging vertices that share a grid cell (mplot3d slows with many faces).
+
+    Args:
+        vertices: ``(V, 3)`` metres; faces: ``(F, 3)`` vertex indices.
+    Returns:
+        ``(vertices (V', 3), faces (F', 3))`` with ``F'`` at most about ``max_faces``.
+    """
+    if len(faces) <= max_faces:
+        return vertices, faces
+    extent = float(np.ptp(vertices, axis=0).max())
+    cells = 24
+    while cells >= 2:
+        keys = np.floor((vertices - vertices.min(0)) / (extent / cells)).astype(np.int64)
+        _, cluster, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+        cluster = cluster.reshape(-1)
+        merged = np.zeros((len(counts), 3))
+        np.add.at(merged, cluster, vertices)
+        merged /= counts[:, None]
+        new_faces = cluster[faces]
+        keep = ((new_faces[:, 0] != new_faces[:, 1]) & (new_faces[:, 1] != new_faces[:, 2])
+                & (new_faces[:, 0] != new_faces[:, 2]))
+        new_faces = np.unique(np.sort(new_faces[keep], axis=1), axis=0)
+        if len(new_faces) <= max_faces:
+            return merged, new_faces
+        cells = int(cells * 0.75)
+    return merged, new_faces
+
+
+def _frame_indices(T: int, stride: int, max_frames: int) -> tuple[np.ndarray, int]:
+    if stride < 1:
+        raise ValueError(f"stride: expected a positive integer, got {stride}")
+    if max_frames < 1:
+        raise ValueError(f"max_frames: expected a positive integer, got {max_frames}")
+    stride = max(stride, math.ceil(T / max_frames))
+    return np.arange(0, T, stride), stride
+
+
+def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), fps: Optional[float] = None,
+                   stride: int = 2, trail_joint: Optional[str] = "pelvis", figsize=(5, 5), max_frames: int = 150,
+                   dpi: int = 72, color_by_side: bool = True, title: Optional[str] = None,
+                   elev: float = 22.0, azim: float = 60.0) -> FuncAnimation:
+    """Animate one or several motions as stick figures with fixed axes and the objects around them.
+
+    Args:
+        motions: a ``Motion`` or joints ``(T, 22, 3)`` metres, or a list of them (played together;
+            a shorter clip holds its last frame).
+        view: ``"3d"`` (perspective, ground grid, objects as wireframe-shaded meshes), ``"side"``
+            (from +X) or ``"top"`` (object footprints).
+        objects: ``ToyObject``s or trimeshes in the world frame.
+        fps: frame rate of the input clips (default: the first Motion's ``fps``, else 30); the
+            animation plays in real time.
+        stride: show every ``stride``-th frame (raised further so at most ``max_frames`` are drawn).
+        trail_joint: joint whose path is drawn as it is traversed (on the ground in 3D), or None.
+        figsize: figure size in inches.
+        max_frames: cap on the number of animation frames (the embedded page grows with it).
+        dpi: resolution of the frames.
+        color_by_side: left limbs blue, right limbs red.
+        title: text shown above the time (and action label, when the clip has labels).
+        elev, azim: 3D camera angles in degrees (the default looks from the front-right, above).
+    Returns:
+        ``matplotlib.animation.FuncAnimation`` (see :func:`to_html`, :func:`show_animation`).
+    """
+    check_choice(view, ("3d", "side", "top", "front"), "view")
+    clips = list(motions) if isinstance(motions, (list, tuple)) else [motions]
+    if not clips:
+        raise ValueError("motions: expected at least one motion")
+    seqs = [_joints_sequence(m, f"motions[{k}]") for k, m in enumerate(clips)]
+    fps = float(fps or getattr(clips[0], "fps", 30.0))
+    T = max(s.shape[0] for s in seqs)
+    frames, stride = _frame_indices(T, stride, max_frames)
+    trail = joint_index(trail_joint) if trail_joint is not None else None
+    actions = [getattr(m, "actions", None) for m in clips]
+    objects = list(objects)
+
+    fig = plt.figure(figsize=figsize, dpi=dpi)
+    colors = bone_colors(color_by_side)
+    bone_idx = np.array(_BONES)
+    object_points = [_object_mesh(o)[0] for o in objects]
+    allpts = np.vstack([s.reshape(-1, 3) for s in seqs] + object_points)
+
+    if view == "3d":
+        ax = fig.add_subplot(projection="3d")
+        _set_3d_limits(ax, allpts, margin=0.2, ground=True)
+        _draw_ground_grid_3d(ax)
+        for obj in objects:
+            vertices, faces = _cluster_decimate(*_object_mesh(obj), _MAX_OBJECT_FACES)
+            ax.add_collection3d(Poly3DCollection(vertices[faces], facecolors=OBJECT_COLOR, edgecolors="0.45",
+                                                 linewidths=0.2, alpha=0.35))
+        ax.view_init(elev=elev, azim=azim)
+        skeletons = [ax.add_collection3d(Line3DCollection(s[0][bone_idx], colors=colors, linewidths=2.5))
+                     for s in seqs]
+        heads = [ax.plot(*s[0, joint_index("head")][:, None], "o", color=SPINE_COLOR, markersize=6)[0] for s in seqs]
+        trails = [ax.plot([], [], [], color=_TRAIL_COLORS[k % len(_TRAIL_COLORS)], linewidth=1.5)[0]
+                  for k in range(len(seqs))] if trail is not None else []
+    else:
+        ax = fig.add_subplot()
+        for obj in objects:
+            plot_object_footprint(obj, ax=ax, view=view, annotate=False)
+        pts2d = project(allpts, view)
+        pad = 0.2
+        ax.set_xlim(pts2d[:, 0].min() - pad, pts2d[:, 0].max() + pad)
+        ax.set_ylim(min(pts2d[:, 1].min(), 0.0) - pad if view != "top" else pts2d[:, 1].min() - pad,
+                    pts2d[:, 1].max() + pad)
+        if view != "top":
+            ax.axhline(0.0, color="0.5", linewidth=1.0, zorder=1)
+        _style_2d_axes(ax, view)
+        ax.set_aspect("equal", adjustable="box")
+        skeletons = [ax.add_collection(LineCollection(project(s[0], view)[bone_idx], colors=colors, linewidths=2.5,
+                                                      zorder=3, capstyle="round")) for s in seqs]
+        heads = [ax.plot(*project(s[0, joint_index("head")], view), "o", color=SPINE_COLOR, markersize=7,
+                         zorder=4)[0] for s in seqs]
+        trails = [ax.plot([], [], color=_TRAIL_COLORS[k % len(_TRAIL_COLORS)], linewidth=1.5, zorder=2)[0]
+                  for k in range(len(seqs))] if trail is not None else []
+    caption = ax.set_title("", fontsize=10)
+
+    def update(i: int):
+        f = int(frames[i])
+        labels = []
+        for k, s in enumerate(seqs):
+            fk = min(f, s.shape[0] - 1)
+            pose = s[fk]
+            if view == "3d":
+                skeletons[k].set_segments(pose[bone_idx])
+                heads[k].set_data_3d(*pose[joint_index("head")][:, None])
+                if trails:
+                    path = s[: fk + 1, trail]
+                    trails[k].set_data_3d(path[:, 0], path[:, 1], np.zeros(len(path)))
+            else:
+                segs = project(pose, view)[bone_idx]
+                # Nearer bones on top: sort by depth along the viewing direction.
+                depth = pose[bone_idx, _VIEW_DEPTH[view]].mean(1)
+                order = np.argsort(depth)
+                skeletons[k].set_segments(segs[order])
+                skeletons[k].set_color([colors[b] for b in order])
+                heads[k].set_data(*project(pose[joint_index("head")], view)[:, None])
+                if trails:
+                    path = project(s[: fk + 1, trail], view)
+                    trails[k].set_data(path[:, 0], path[:, 1])
+            if actions[k] is not None:
+                labels.append(ACTIONS[int(actions[k][fk])].replace("_", " "))
+        text = f"t = {f / fps:.2f} s"
+        if labels:
+            text += "   " + ", ".join(dict.fromkeys(labels))
+        caption.set_text(f"{title}\n{text}" if title else text)
+        return skeletons + heads + trails + [caption]
+
+    update(0)
+    fig.tight_layout()
+    anim = FuncAnimation(fig, update, frames=len(frames), interval=1000.0 * stride / fps, blit=False)
+    return anim
+
+
+def to_html(anim: FuncAnimation, default_mode: str = "loop") -> str:
+    """The animation as a self-contained HTML/JavaScript player (``FuncAnimation.to_jshtml``).
+
+    Args:
+        anim: an animation from :func:`animate_motion`.
+        default_mode: ``"loop"``, ``"once"`` or ``"reflect"``.
+    Returns:
+        HTML text with the frames embedded as base64 PNGs.
+    """
+    check_choice(default_mode, ("loop", "once", "reflect"), "default_mode")
+    # The default embed limit (20 MB) is far above what animate_motion produces; keep it explicit.
+    with matplotlib.rc_context({"animation.embed_limit": 50.0}):
+        return anim.to_jshtml(default_mode=default_mode)
+
+
+def show_animation(anim: FuncAnimation, default_mode: str = "loop"):
+    """``IPython.display.HTML`` of the animation; closes its figure so no static copy is shown.
+
+    Args:
+        anim: an animation from :func:`animate_motion`.
+        default_mode: ``"loop"``, ``"once"`` or ``"reflect"``.
+    Returns:
+        ``IPython.display.HTML``.
+    """
+    from IPython.display import HTML
+
+    html = to_html(anim, default_mode=default_mode)
+    plt.close(anim._fig)
+    return HTML(html)
