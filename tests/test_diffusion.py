@@ -79,7 +79,7 @@ def test_posterior_mean_and_variance_match_diffusers_step(kind):
         else:
             assert torch.all(noise_term == 0) and torch.all(variance == 0)
             # log-variance at k = 0 is clipped to the value of k = 1
-            assert torch.allclose(log_variance, ours.posterior_log_variance_clipped[1].expand(shape))
+            assert torch.allclose(log_variance, ours.posterior_log_variance_clipped[1].float().expand(shape))
 
 
 def test_q_sample_matches_diffusers_add_noise():
@@ -112,8 +112,8 @@ def test_linear_schedule_is_rescaled_for_fewer_steps():
     s = linear_schedule(100)
     assert math.isclose(float(s.betas[0]), 1e-3, rel_tol=1e-12)
     assert math.isclose(float(s.betas[-1]), 0.2, rel_tol=1e-12)
-    with pytest.raises(ValueError, match="too few"):
-        linear_schedule(10)
+    # with very few steps the rescaled betas would pass 1: they are clipped like the cosine's
+    assert math.isclose(float(linear_schedule(10).betas[-1]), 0.999, rel_tol=1e-12)
 
 
 def test_schedule_to_device_keeps_values():
@@ -258,7 +258,7 @@ def _exact_sampler_moments(schedule):
 
 def test_sampling_recovers_gaussian_data():
     schedule = cosine_schedule(200)
-    n = 20000
+    n = 10000
     x0_fn = _optimal_gaussian_denoiser(schedule)
     g = torch.Generator().manual_seed(0)
     x_init = torch.randn(n, 2, generator=g, dtype=torch.float64)
@@ -406,5 +406,5 @@ def test_training_reduces_loss_for_a_tiny_denoiser():
         opt.zero_grad()
         loss.backward()
         opt.step()
-        losses.append(float(loss))
+        losses.append(float(loss.detach()))
     assert sum(losses[-20:]) / 20 < 0.5 * sum(losses[:5]) / 5

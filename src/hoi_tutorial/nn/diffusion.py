@@ -105,6 +105,7 @@ class NoiseSchedule:
 
     @property
     def device(self) -> torch.device:
+        """The device the schedule's tensors live on."""
         return self.betas.device
 
     def to(self, device) -> "NoiseSchedule":
@@ -137,19 +138,19 @@ def cosine_schedule(K: int, s: float = 0.008, max_beta: float = 0.999) -> NoiseS
     return NoiseSchedule.from_betas(torch.tensor(betas, dtype=torch.float64))
 
 
-def linear_schedule(K: int, beta_start: float = 1e-4, beta_end: float = 0.02) -> NoiseSchedule:
+def linear_schedule(K: int, beta_start: float = 1e-4, beta_end: float = 0.02,
+                    max_beta: float = 0.999) -> NoiseSchedule:
     """Linear schedule of Ho et al. 2020, rescaled for ``K`` steps as in improved DDPM.
 
     The betas run linearly from ``beta_start · 1000/K`` to ``beta_end · 1000/K``, so that a
     schedule with fewer steps reaches about the same final noise level as the 1000-step one.
+    Below about 20 steps the rescaled betas would pass 1; they are clipped at ``max_beta``.
     """
     K = int(K)
     if K < 2:
         raise ValueError(f"K: expected at least 2 diffusion steps, got {K}")
     scale = 1000.0 / K
-    if beta_end * scale > 1.0:
-        raise ValueError(f"K: {K} steps are too few for beta_end={beta_end} (β would exceed 1)")
-    betas = torch.linspace(beta_start * scale, beta_end * scale, K, dtype=torch.float64)
+    betas = torch.linspace(beta_start * scale, beta_end * scale, K, dtype=torch.float64).clamp(max=max_beta)
     return NoiseSchedule.from_betas(betas)
 
 
