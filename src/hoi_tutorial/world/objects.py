@@ -747,6 +747,7 @@ class ToyObject:
     def with_pose(self, pose) -> "ToyObject":
         """A copy with ``pose`` (4, 4) world_from_object; canonical caches are shared."""
         out = copy.copy(self)
+        out.params = dict(self.params)
         out.pose = np.asarray(pose, dtype=np.float64).copy()
         check_shape(out.pose, (4, 4), "pose")
         out._mesh = None

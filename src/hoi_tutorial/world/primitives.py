@@ -19,7 +19,7 @@ are batched and accept torch tensors (differentiable, device and dtype kept) or 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
@@ -432,6 +432,27 @@ def _segment_distance_2d(xy: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nda
     return np.linalg.norm(xy - (a + t[:, None] * ab), axis=1)
 
 
+def _convex_hull_2d(points: np.ndarray) -> np.ndarray:
+    """Counter-clockwise hull vertices (K, 2) of a few 2D points (Andrew's monotone chain)."""
+    pts = sorted(set(map(tuple, np.round(points, 12))))
+    if len(pts) <= 2:
+        return np.array(pts)
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower, upper = [], []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    for p in reversed(pts):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return np.array(lower[:-1] + upper[:-1])
+
+
 def footprint_distance(prim: Primitive, xy, z_band=(-np.inf, np.inf)) -> np.ndarray:
     """Horizontal distance from ``xy`` to the vertical projection of ``prim`` (0 inside it).
 
@@ -458,17 +479,9 @@ def footprint_distance(prim: Primitive, xy, z_band=(-np.inf, np.inf)) -> np.ndar
         b = prim.centre + prim.rotation[:, 2] * h
         return np.clip(_segment_distance_2d(xy, a[:2], b[:2]) - r, 0.0, None)
     # box: convex hull of the 8 projected corners
-    from scipy.spatial import ConvexHull
-
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64)
     corners = (signs * prim.size) @ prim.rotation.T + prim.centre
-    pts2 = corners[:, :2]
-    try:
-        hull = ConvexHull(pts2)
-        polygon = pts2[hull.vertices]
-    except Exception:  # degenerate projection (a box seen edge-on): a segment
-        order = np.argsort(pts2 @ (pts2.max(0) - pts2.min(0)))
-        polygon = pts2[[order[0], order[-1]]]
+    polygon = _convex_hull_2d(corners[:, :2])
     dist = np.full(len(xy), np.inf)
     for k in range(len(polygon)):
         dist = np.minimum(dist, _segment_distance_2d(xy, polygon[k], polygon[(k + 1) % len(polygon)]))

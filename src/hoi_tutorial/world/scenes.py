@@ -293,14 +293,21 @@ class Room(_GridScene):
         return ax
 
 
+_TRUNCATION = 0.6  # metres: footprint distances beyond this are stored as inf while placing
+
+
 def _place(obj, rng, scene_size, d_old, centres, cell, gap, *, region=None, wall_margin=0.05, tries=40, yaw=None, xy=None):
     """Rejection-sample a pose for ``obj`` whose footprint keeps ``gap`` metres from ``d_old``.
 
-    ``d_old`` (H·W,) is the distance from the cell centres to the footprints already placed.
+    ``d_old`` (H·W,) is the distance from the cell centres to the footprints already placed
+    (inf beyond ``_TRUNCATION`` from an object's bounding box).
     Since footprint distances are 1-Lipschitz, ``min(d_new + d_old) >= gap + cell·√2`` over the
     cell centres guarantees a true separation of at least ``gap``.
     Returns the placed object and its distance map, or (None, None).
     """
+    threshold = gap + cell * np.sqrt(2.0)
+    if threshold > _TRUNCATION:
+        raise ValueError(f"gap: expected at most {_TRUNCATION - cell * np.sqrt(2.0):.2f} m, got {gap}")
     region = region if region is not None else (np.zeros(2), np.asarray(scene_size))
     for _ in range(tries):
         pose_xy = xy() if callable(xy) else rng.uniform(region[0], region[1])
@@ -309,8 +316,12 @@ def _place(obj, rng, scene_size, d_old, centres, cell, gap, *, region=None, wall
         lo, hi = cand.bounds
         if np.any(lo[:2] < wall_margin) or np.any(hi[:2] > np.asarray(scene_size) - wall_margin):
             continue
-        d_new = _objects_footprint_distance([cand], centres)
-        if np.min(d_new + d_old) >= gap + cell * np.sqrt(2.0):
+        # cells farther than _TRUNCATION from the bounding box cannot fail a test with a smaller
+        # threshold, so their distance is left at inf (the truncated map stays exact for the tests)
+        near = np.all((centres >= lo[:2] - _TRUNCATION) & (centres <= hi[:2] + _TRUNCATION), axis=1)
+        d_new = np.full(len(centres), np.inf)
+        d_new[near] = _objects_footprint_distance([cand], centres[near])
+        if np.min(d_new[near] + d_old[near], initial=np.inf) >= threshold:
             return cand, d_new
     return None, None
 
