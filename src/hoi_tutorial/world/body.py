@@ -8,17 +8,23 @@ body shape ``b``; radii are scaled by ``b[0]`` (overall size), ``b[6]`` (limb gi
 +X the character's right), so "local" below also reads as "world axes in the T-pose".
 
 Surface vertices stand in for SMPL's mesh vertices (NIFTY's contact sets, D2O, foot skating):
-a fixed pattern of rings on each capsule (cylinder rings plus hemispherical caps), stored as
+a fixed pattern of rings on each capsule (cylinder rings plus hemispherical caps, about 7 cm
+apart on the mean body; ring counts are fixed from the mean body's capsule sizes), stored as
 parameters (capsule, position along the axis, polar and azimuth angles), so vertex ``i`` is the
 same body spot in every pose and for every body shape. Sample points that lie inside another
 capsule in the mean body's T-pose are dropped once, at import, so vertices sit on the visible
 surface; the same index set is used for all bodies.
 
-The feet are capsules from the heel to the toe tip, riding in the ankle frame, with radius
-``FOOT_RADIUS``; the heel and toe end points sit ``FOOT_RADIUS`` above the ground in the rest
-pose, so the sole touches z = 0 when standing (``mocap.poses.standing_pose``).
-``RIGHT_TOE_VERTEX`` (the lowest, front-most vertex of the right foot) is the point NIFTY's
-foot-skating metric tracks.
+Capsules (``CAPSULE_NAMES``): a hips block across the hip joints, lower/mid/upper torso
+(the chest runs across the collar joints), neck, head, upper arms, forearms, hands (past the
+wrist), thighs, shins, feet and toes; limb capsules run from a joint to its child joint. Each
+foot is two capsules of radius ``FOOT_RADIUS`` along one line, heel to toe tip: the *foot*
+from the heel to the ball (riding in the ankle frame) and the *toes* from the ball to the toe
+tip (riding in the ``*_foot`` joint's frame, so a toe break — the foot joint bending while the
+heel rolls up — keeps the toes flat on the ground). Their end points sit ``FOOT_RADIUS`` above
+the ground in the rest pose, so the sole touches z = 0 when standing
+(``mocap.poses.standing_pose``). ``RIGHT_TOE_VERTEX`` (the lowest, front-most vertex of the
+right toes) is the point NIFTY's foot-skating metric tracks.
 """
 from __future__ import annotations
 
@@ -88,6 +94,8 @@ _CAPSULES = (
     ("right_shin", "right_knee", "right_shin", 0.050, "limb", (0.0, 1.0, 0.0)),
     ("left_foot", "left_ankle", "left_foot", FOOT_RADIUS, "foot", (0.0, 0.0, -1.0)),
     ("right_foot", "right_ankle", "right_foot", FOOT_RADIUS, "foot", (0.0, 0.0, -1.0)),
+    ("left_toes", "left_foot", "left_foot", FOOT_RADIUS, "foot", (0.0, 0.0, -1.0)),
+    ("right_toes", "right_foot", "right_foot", FOOT_RADIUS, "foot", (0.0, 0.0, -1.0)),
 )
 
 CAPSULE_NAMES: tuple[str, ...] = tuple(c[0] for c in _CAPSULES)
@@ -103,6 +111,13 @@ _AZIMUTH_REFERENCE = torch.tensor([c[5] for c in _CAPSULES], dtype=torch.float64
 # horizontal direction; the surface then reaches FOOT_RADIUS further at each end.
 _HEEL_BEHIND_ANKLE = 0.025
 _TOE_AHEAD_OF_FOOT_JOINT = 0.035
+
+
+def _float_tensor(x, name: str) -> torch.Tensor:
+    """A floating tensor keeps its dtype and device; anything else becomes float32."""
+    if isinstance(x, torch.Tensor) and x.is_floating_point():
+        return x
+    return as_tensor(x, name)
 
 
 def _as_betas(betas, like: Optional[torch.Tensor] = None) -> torch.Tensor:
@@ -140,18 +155,24 @@ def capsule_local_segments(betas=None):
     def o(name):
         return off[..., _J(name), :]
 
+    def foot_direction(side):
+        to_ball = o(f"{side}_foot")
+        horizontal = torch.cat([to_ball[..., :2], torch.zeros_like(to_ball[..., :1])], -1)
+        return horizontal, horizontal / horizontal.norm(dim=-1, keepdim=True)
+
+    def lift(height):
+        # Local offset that puts a point FOOT_RADIUS above the ground in the rest pose.
+        return torch.stack([torch.zeros_like(height), torch.zeros_like(height), FOOT_RADIUS - height], -1)
+
     def foot(side):
-        ankle, foot_joint = f"{side}_ankle", f"{side}_foot"
-        ankle_height = rest[..., _J(ankle), 2]
-        to_foot = o(foot_joint)
-        horizontal = torch.cat([to_foot[..., :2], torch.zeros_like(to_foot[..., :1])], -1)
-        direction = horizontal / horizontal.norm(dim=-1, keepdim=True)
-        # Both end points FOOT_RADIUS above the ground in the rest pose: a flat sole at z = 0.
-        drop = torch.stack([torch.zeros_like(ankle_height), torch.zeros_like(ankle_height),
-                            FOOT_RADIUS - ankle_height], -1)
-        heel = -_HEEL_BEHIND_ANKLE * size * direction + drop
-        toe = horizontal + _TOE_AHEAD_OF_FOOT_JOINT * size * direction + drop
-        return heel, toe
+        horizontal, direction = foot_direction(side)
+        drop = lift(rest[..., _J(f"{side}_ankle"), 2])
+        return -_HEEL_BEHIND_ANKLE * size * direction + drop, horizontal + drop
+
+    def toes(side):
+        _, direction = foot_direction(side)
+        drop = lift(rest[..., _J(f"{side}_foot"), 2])
+        return drop, _TOE_AHEAD_OF_FOOT_JOINT * size * direction + drop
 
     def hand(side):
         along = o(f"{side}_wrist")
@@ -182,6 +203,8 @@ def capsule_local_segments(betas=None):
         "right_shin": (zero, o("right_ankle")),
         "left_foot": foot("left"),
         "right_foot": foot("right"),
+        "left_toes": toes("left"),
+        "right_toes": toes("right"),
     }
     a = torch.stack([ends[n][0].expand(batch + (3,)) for n in CAPSULE_NAMES], dim=-2)
     b = torch.stack([ends[n][1].expand(batch + (3,)) for n in CAPSULE_NAMES], dim=-2)
@@ -209,8 +232,8 @@ def _check_pose(global_rotations, joint_positions):
 
 
 def _pose_tensors(global_rotations, joint_positions):
-    rot = as_tensor(global_rotations, "global_rotations")
-    pos = as_tensor(joint_positions, "joint_positions")
+    rot = _float_tensor(global_rotations, "global_rotations")
+    pos = _float_tensor(joint_positions, "joint_positions")
     _check_pose(rot, pos)
     dtype = torch.promote_types(rot.dtype, pos.dtype)
     return rot.to(dtype), pos.to(dtype)
@@ -321,8 +344,8 @@ _VERTEX_JOINT = np.asarray(CAPSULE_JOINTS, dtype=np.int64)[VERTEX_CAPSULE]
 
 
 def _foot_vertex(side: str, end: str) -> int:
-    """Lowest vertex of a foot capsule at its front (toe) or back (heel) in the rest pose."""
-    ids = np.flatnonzero(VERTEX_CAPSULE == CAPSULE_NAMES.index(f"{side}_foot"))
+    """Lowest vertex at the front of the toes or the back of the heel in the rest pose."""
+    ids = np.flatnonzero(VERTEX_CAPSULE == CAPSULE_NAMES.index(f"{side}_toes" if end == "toe" else f"{side}_foot"))
     z = _REST_VERTICES[ids, 2]
     low = ids[z <= z.min() + 1e-6]
     y = _REST_VERTICES[low, 1]
@@ -379,7 +402,7 @@ def body_sdf(points, global_rotations, joint_positions, betas=None) -> torch.Ten
     Returns:
         ``(..., P)`` signed distance in metres.
     """
-    points = as_tensor(points, "points")
+    points = _float_tensor(points, "points")
     check_shape(points, (..., None, 3), "points")
     a, b, radius = capsule_segments(global_rotations, joint_positions, betas)
     dtype = torch.promote_types(points.dtype, a.dtype)

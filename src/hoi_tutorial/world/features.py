@@ -30,7 +30,8 @@ NIFTY Eq. 1 (``nifty_pose_state``), per frame, 336 numbers
 
 SAMP Eq. 1, reduced (``samp_pose_state``)
     Everything relative to the current root frame. Changes from the paper: ``t = 7`` trajectory
-    samples over [−1, 1] s (every 1/3 s) instead of the paper's denser window; the joint
+    samples over [−1, 1] s (every 1/3 s; the paper does not state ``t``, the Neural State
+    Machine representation it follows samples 13 points over the same window); the joint
     positions relative to the future root (``j̃^p``) are left out; trajectory action labels are
     one-hot (the toy mocap's labels are discrete). Sizes (paper sizes with t samples in
     brackets): ``j^p`` 66, ``j^r`` 132, ``j^v`` 66, ``t^p`` 14 [2t], ``t^d`` 14 [2t], ``t̃^p`` 14 [2t],
@@ -39,8 +40,7 @@ SAMP Eq. 1, reduced (``samp_pose_state``)
 """
 from __future__ import annotations
 
-from dataclasses import replace
-from typing import Optional, Sequence, Union
+from typing import Optional
 
 import numpy as np
 import torch
@@ -82,6 +82,13 @@ __all__ = [
 _LEFT_HIP, _RIGHT_HIP, _PELVIS = joint_index("left_hip"), joint_index("right_hip"), joint_index("pelvis")
 
 
+def _float_tensor(x, name: str) -> torch.Tensor:
+    """A floating tensor keeps its dtype and device; anything else becomes float32."""
+    if isinstance(x, torch.Tensor) and x.is_floating_point():
+        return x
+    return as_tensor(x, name)
+
+
 # ----------------------------------------------------------------------------- root frame
 
 
@@ -92,8 +99,9 @@ def body_heading(joints) -> torch.Tensor:
         joints: ``(..., 22, 3)`` joint positions, metres.
     Returns:
         ``(...)`` radians about +Z; 0 faces +Y, ``π/2`` faces −X (as ``rotation_about_z``).
+        Ill-defined only when the hip line is vertical (lying on one side).
     """
-    joints = as_tensor(joints, "joints")
+    joints = _float_tensor(joints, "joints")
     check_shape(joints, (..., NUM_JOINTS, 3), "joints")
     across = joints[..., _RIGHT_HIP, :] - joints[..., _LEFT_HIP, :]
     # forward = up × across = (−across_y, across_x, 0); heading = atan2(−forward_x, forward_y).
@@ -109,7 +117,7 @@ def root_frame(joints):
         ``(origin (..., 3) metres with z = 0, heading (...) radians)``.
     """
     heading = body_heading(joints)
-    joints = as_tensor(joints, "joints")
+    joints = _float_tensor(joints, "joints")
     origin = joints[..., _PELVIS, :] * torch.tensor([1.0, 1.0, 0.0], dtype=joints.dtype, device=joints.device)
     return origin, heading
 
@@ -118,7 +126,7 @@ def _joints_of(motion_or_pose):
     if isinstance(motion_or_pose, Motion):
         return motion_or_pose.joints
     if isinstance(motion_or_pose, (tuple, list)) and len(motion_or_pose) == 2:
-        joints = as_tensor(motion_or_pose[1], "joints")
+        joints = _float_tensor(motion_or_pose[1], "joints")
         check_shape(joints, (..., NUM_JOINTS, 3), "joints")
         return joints if joints.dim() > 2 else joints[None]
     raise TypeError("motion_or_pose: expected a Motion or a (global_rotations, joints) pair")
@@ -202,8 +210,10 @@ def angular_velocity(global_rotations, fps: float = FPS) -> torch.Tensor:
     Returns:
         ``(T, ..., 3)`` rad/s.
     """
-    rot = as_tensor(global_rotations, "global_rotations")
-    check_shape(rot, (None, ..., 3, 3), "global_rotations") if rot.dim() >= 3 else check_shape(rot, (None, 3, 3), "global_rotations")
+    rot = _float_tensor(global_rotations, "global_rotations")
+    check_shape(rot, (..., 3, 3), "global_rotations")
+    if rot.dim() < 3:
+        raise ValueError(f"global_rotations: expected shape (T, ..., 3, 3), got {tuple(rot.shape)}")
     if rot.shape[0] < 2:
         return torch.zeros(rot.shape[:-2] + (3,), dtype=rot.dtype, device=rot.device)
     omega = matrix_to_axis_angle(rot[1:] @ rot[:-1].transpose(-1, -2)) * fps
@@ -245,7 +255,7 @@ def split_nifty_state(x) -> dict[str, torch.Tensor]:
         ``joint_velocities (..., 22, 3)``, ``joint_angular_velocities (..., 22, 3)``,
         ``root_position (..., 3)``, ``root_velocity (..., 3)`` (views of ``x``).
     """
-    x = as_tensor(x, "x")
+    x = _float_tensor(x, "x")
     check_shape(x, (..., NIFTY_STATE_SIZE), "x")
     return {name: x[..., NIFTY_STATE_LAYOUT[name]].reshape(x.shape[:-1] + shape) for name, shape in _NIFTY_PARTS}
 
@@ -266,7 +276,7 @@ def nifty_state_to_pose(x, fps: float = FPS, integrate_root: bool = True):
     Returns:
         ``(local_rotations (..., T, 22, 3, 3), root_position (..., T, 3) metres)``.
     """
-    x = as_tensor(x, "x")
+    x = _float_tensor(x, "x")
     check_shape(x, (..., None, NIFTY_STATE_SIZE), "x")
     parts = split_nifty_state(x)
     glob = rotation_6d_to_matrix(parts["joint_rotations"])
@@ -290,7 +300,7 @@ def motion_from_nifty_state(x, betas=None, integrate_root: bool = True, fps: flo
     Returns:
         a ``Motion`` without labels.
     """
-    x = as_tensor(x, "x")
+    x = _float_tensor(x, "x")
     check_shape(x, (None, NIFTY_STATE_SIZE), "x")
     local, root = nifty_state_to_pose(x, fps, integrate_root)
     kwargs = {} if betas is None else {"betas": as_tensor(betas, "betas")}
@@ -349,8 +359,8 @@ def samp_action_ids(labels) -> np.ndarray:
     """Map toy-mocap action labels to SAMP's five actions (``SAMP_ACTIONS``).
 
     Args:
-        labels: ``(T,)`` ids into ``motion.ACTIONS`` or names (from ``ACTIONS`` or ``SAMP_ACTIONS``),
-            or a single name.
+        labels: ``(T,)`` ids into ``motion.ACTIONS`` or names from ``ACTIONS`` (which include
+            the five ``SAMP_ACTIONS``), or a single name.
     Returns:
         ``(T,)`` int64 ids into ``SAMP_ACTIONS`` (``(1,)`` for a single name).
     """
@@ -359,11 +369,8 @@ def samp_action_ids(labels) -> np.ndarray:
     out = []
     for label in np.asarray(labels, dtype=object).reshape(-1):
         if isinstance(label, str):
-            if label in SAMP_ACTIONS and label not in SAMP_ACTION_OF:
-                out.append(SAMP_ACTIONS.index(label))
-                continue
-            check_choice(label, list(ACTIONS) + list(SAMP_ACTIONS), "action label")
-            out.append(SAMP_ACTIONS.index(SAMP_ACTION_OF.get(label, label)))
+            check_choice(label, ACTIONS, "action label")
+            out.append(SAMP_ACTIONS.index(SAMP_ACTION_OF[label]))
         else:
             idx = int(label)
             if not 0 <= idx < len(ACTIONS):
@@ -404,7 +411,7 @@ def _goal_arrays(goal_position, goal_direction, T: int, dtype):
     return pos, flat
 
 
-def _one_hot(ids: np.ndarray, T: int, dtype) -> torch.Tensor:
+def _one_hot(ids: np.ndarray, dtype) -> torch.Tensor:
     return torch.nn.functional.one_hot(torch.as_tensor(ids), _NA).to(dtype)
 
 
@@ -487,12 +494,12 @@ def samp_pose_state(
             ids = np.repeat(ids, T)
         if ids.shape[0] != T:
             raise ValueError(f"action_labels: expected {T} per-frame labels or one name, got {ids.shape[0]}")
-        parts["trajectory_actions"] = _one_hot(ids[idx.numpy()], T, dtype).reshape(T, -1)
+        parts["trajectory_actions"] = _one_hot(ids[idx.numpy()], dtype).reshape(T, -1)
     if goal_action is None:
         parts["goal_actions"] = torch.zeros(T, _NA * _NS, dtype=dtype)
     else:
         gid = samp_action_ids(goal_action)
-        parts["goal_actions"] = _one_hot(np.repeat(gid, T * _NS), T, dtype).reshape(T, -1)
+        parts["goal_actions"] = _one_hot(np.repeat(gid, T * _NS), dtype).reshape(T, -1)
     if motion.contacts is None:
         parts["contacts"] = torch.zeros(T, len(CONTACT_JOINTS), dtype=dtype)
     else:

@@ -120,7 +120,9 @@ _FOOT = [_IDX[n] for n in ("left_foot", "right_foot")]
 def _as_betas(betas) -> torch.Tensor:
     if betas is None:
         return torch.zeros(NUM_BETAS)
-    betas = as_tensor(betas, "betas")
+    # A floating tensor keeps its dtype (float64 callers get float64 offsets); anything else -> float32.
+    if not (isinstance(betas, torch.Tensor) and betas.is_floating_point()):
+        betas = as_tensor(betas, "betas")
     check_shape(betas, (..., NUM_BETAS), "betas")
     return betas
 
