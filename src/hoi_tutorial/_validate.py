@@ -49,10 +49,17 @@ def check_finite(x, name: str) -> None:
         raise ValueError(f"{name}: expected finite values, found NaN or inf")
 
 
-def as_tensor(x, name: str, dtype=torch.float32) -> torch.Tensor:
-    """Convert an array-like to a float tensor (keeps an existing tensor's device)."""
+def as_tensor(x, name: str, dtype=None) -> torch.Tensor:
+    """Convert an array-like to a float tensor (keeps an existing tensor's device).
+
+    A floating tensor keeps its dtype unless ``dtype`` is given; anything else becomes ``dtype``
+    (default float32).
+    """
     if isinstance(x, torch.Tensor):
+        if dtype is None:
+            return x if x.is_floating_point() else x.to(torch.float32)
         return x if x.dtype == dtype else x.to(dtype)
+    dtype = dtype or torch.float32
     try:
         return torch.as_tensor(np.asarray(x), dtype=dtype)
     except Exception as exc:  # pragma: no cover - message path

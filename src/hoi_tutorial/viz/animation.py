@@ -4,7 +4,7 @@
 self-contained JavaScript player (``FuncAnimation.to_jshtml``) and ``show_animation`` returns it
 as an ``IPython.display.HTML`` object, closing the figure so a notebook shows no static copy.
 Frames are subsampled (``stride``, ``max_frames``) and drawn at a modest dpi to keep the page
-small: a 5 s clip at the defaults embeds in about 1 MB.
+small: a 5 s clip (75 frames) at the defaults embeds in 1.5–2.5 MB.
 """
 from __future__ import annotations
 
@@ -16,6 +16,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.animation import FuncAnimation
 from matplotlib.collections import LineCollection
+from matplotlib.colors import to_rgba
+from matplotlib.transforms import Bbox
 from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
 from .._validate import check_choice
@@ -72,6 +74,59 @@ def _cluster_decimate(vertices: np.ndarray, faces: np.ndarray, max_faces: int) -
     return merged, new_faces
 
 
+_ZOOM_NORM = 1.8294640721620434  # mplot3d's box-aspect norm at zoom 1 (Axes3D.set_box_aspect)
+
+
+def _content_bbox(fig, ax):
+    """Pixel bounding box of a 3D axes' drawn box, ticks and labels."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    return Bbox.union([axis.get_tightbbox(renderer) for axis in (ax.xaxis, ax.yaxis, ax.zaxis)])
+
+
+def _fit_3d_axes(fig, ax, top_px: float = 26.0, margin_px: float = 4.0) -> None:
+    """Crop a 3D figure to its content: mplot3d draws into a square, which leaves a flat scene (a
+    long walk) floating in empty space. The figure keeps its width, gets the content's height, and
+    the zoom is adjusted (a few measured passes) so the box, ticks and labels fill it."""
+    width, height = fig.bbox.width, fig.bbox.height
+    box = _content_bbox(fig, ax)
+    aspect = np.asarray(ax.get_box_aspect())
+    zoom = float(np.linalg.norm(aspect)) / _ZOOM_NORM
+    side_before = min(ax.get_position().width * width, ax.get_position().height * height)
+    grow = (width - 2 * margin_px) / box.width
+    new_height = min(height, box.height * grow + top_px + 2 * margin_px)
+    fig.set_size_inches(width / fig.dpi, new_height / fig.dpi)
+    ax.set_position([0.0, 0.0, 1.0, 1.0])
+    zoom *= grow * side_before / min(width, new_height)
+    # Content now reaches past the axes' square, so nothing may be clipped to it.
+    for artist in ax.get_children():
+        artist.set_clip_on(False)
+    for _ in range(3):
+        ax.set_box_aspect(aspect, zoom=zoom)
+        box = _content_bbox(fig, ax)
+        zoom *= min((width - 2 * margin_px) / box.width, (new_height - top_px - 2 * margin_px) / box.height)
+        ax.set_box_aspect(aspect, zoom=zoom)
+        box = _content_bbox(fig, ax)
+        dx = (width - box.x1 - box.x0) / 2
+        dy = (new_height - top_px - box.y1 - box.y0) / 2
+        pos = ax.get_position()
+        ax.set_position([pos.x0 + dx / width, pos.y0 + dy / new_height, pos.width, pos.height])
+
+
+def _shaded_faces(vertices: np.ndarray, faces: np.ndarray, alpha: float = 0.45) -> np.ndarray:
+    """RGBA per face ``(F, 4)``: the object colour lit by a light above the camera (Lambert), so a
+    mesh reads as a solid without edge lines (which would also inflate every embedded frame)."""
+    tris = vertices[faces]
+    normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    light = np.array([0.35, 0.6, 0.72]) / np.linalg.norm([0.35, 0.6, 0.72])
+    # Face winding may vary between parts; |n . l| lights both sides alike.
+    shade = 0.55 + 0.45 * np.abs(normals @ light)
+    rgba = np.tile(to_rgba(OBJECT_COLOR, alpha), (len(faces), 1))
+    rgba[:, :3] *= shade[:, None]
+    return rgba
+
+
 def _frame_indices(T: int, stride: int, max_frames: int) -> tuple[np.ndarray, int]:
     if stride < 1:
         raise ValueError(f"stride: expected a positive integer, got {stride}")
@@ -83,15 +138,15 @@ def _frame_indices(T: int, stride: int, max_frames: int) -> tuple[np.ndarray, in
 
 def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), fps: Optional[float] = None,
                    stride: int = 2, trail_joint: Optional[str] = "pelvis", figsize=(5, 5), max_frames: int = 150,
-                   dpi: int = 72, color_by_side: bool = True, title: Optional[str] = None,
+                   dpi: int = 64, color_by_side: bool = True, title: Optional[str] = None,
                    elev: float = 22.0, azim: float = 60.0) -> FuncAnimation:
     """Animate one or several motions as stick figures with fixed axes and the objects around them.
 
     Args:
         motions: a ``Motion`` or joints ``(T, 22, 3)`` metres, or a list of them (played together;
             a shorter clip holds its last frame).
-        view: ``"3d"`` (perspective, ground grid, objects as wireframe-shaded meshes), ``"side"``
-            (from +X) or ``"top"`` (object footprints).
+        view: ``"3d"`` (perspective, ground grid, objects as see-through shaded meshes), ``"side"``
+            (from +X), ``"front"`` (from +Y) or ``"top"`` (object footprints).
         objects: ``ToyObject``s or trimeshes in the world frame.
         fps: frame rate of the input clips (default: the first Motion's ``fps``, else 30); the
             animation plays in real time.
@@ -126,17 +181,21 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), fps: Op
 
     if view == "3d":
         ax = fig.add_subplot(projection="3d")
+        # Fixed drawing order (ground, objects, trails, bodies): a body stays readable even where
+        # the depth sort of mplot3d's painter's algorithm would hide it behind a see-through object.
+        ax.computed_zorder = False
         _set_3d_limits(ax, allpts, margin=0.2, ground=True)
         _draw_ground_grid_3d(ax)
         for obj in objects:
             vertices, faces = _cluster_decimate(*_object_mesh(obj), _MAX_OBJECT_FACES)
-            ax.add_collection3d(Poly3DCollection(vertices[faces], facecolors=OBJECT_COLOR, edgecolors="0.45",
-                                                 linewidths=0.2, alpha=0.35))
+            ax.add_collection3d(Poly3DCollection(vertices[faces], facecolors=_shaded_faces(vertices, faces),
+                                                 edgecolors="none", zorder=1))
         ax.view_init(elev=elev, azim=azim)
-        skeletons = [ax.add_collection3d(Line3DCollection(s[0][bone_idx], colors=colors, linewidths=2.5))
+        skeletons = [ax.add_collection3d(Line3DCollection(s[0][bone_idx], colors=colors, linewidths=2.5, zorder=3))
                      for s in seqs]
-        heads = [ax.plot(*s[0, joint_index("head")][:, None], "o", color=SPINE_COLOR, markersize=6)[0] for s in seqs]
-        trails = [ax.plot([], [], [], color=_TRAIL_COLORS[k % len(_TRAIL_COLORS)], linewidth=1.5)[0]
+        heads = [ax.plot(*s[0, joint_index("head")][:, None], "o", color=SPINE_COLOR, markersize=6, zorder=4)[0]
+                 for s in seqs]
+        trails = [ax.plot([], [], [], color=_TRAIL_COLORS[k % len(_TRAIL_COLORS)], linewidth=1.5, zorder=2)[0]
                   for k in range(len(seqs))] if trail is not None else []
     else:
         ax = fig.add_subplot()
@@ -144,9 +203,14 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), fps: Op
             plot_object_footprint(obj, ax=ax, view=view, annotate=False)
         pts2d = project(allpts, view)
         pad = 0.2
-        ax.set_xlim(pts2d[:, 0].min() - pad, pts2d[:, 0].max() + pad)
-        ax.set_ylim(min(pts2d[:, 1].min(), 0.0) - pad if view != "top" else pts2d[:, 1].min() - pad,
-                    pts2d[:, 1].max() + pad)
+        lo, hi = pts2d.min(0) - pad, pts2d.max(0) + pad
+        if view != "top":
+            lo[1] = min(lo[1], -pad)
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        # Fit the figure to the data's aspect so a long walk is not a thin strip in a square.
+        ratio = float(np.clip((hi[1] - lo[1]) / (hi[0] - lo[0]), 0.3, 1.5))
+        fig.set_size_inches(figsize[0], figsize[0] * ratio + 0.9)
         if view != "top":
             ax.axhline(0.0, color="0.5", linewidth=1.0, zorder=1)
         _style_2d_axes(ax, view)
@@ -157,7 +221,8 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), fps: Op
                          zorder=4)[0] for s in seqs]
         trails = [ax.plot([], [], color=_TRAIL_COLORS[k % len(_TRAIL_COLORS)], linewidth=1.5, zorder=2)[0]
                   for k in range(len(seqs))] if trail is not None else []
-    caption = ax.set_title("", fontsize=10)
+    # In 3D the axes fill the figure (see _fit_3d_axes), so the caption belongs to the figure.
+    caption = fig.suptitle("", fontsize=10, y=0.99, va="top") if view == "3d" else ax.set_title("", fontsize=10)
 
     def update(i: int):
         f = int(frames[i])
@@ -191,7 +256,10 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), fps: Op
         return skeletons + heads + trails + [caption]
 
     update(0)
-    fig.tight_layout()
+    if view == "3d":
+        _fit_3d_axes(fig, ax, top_px=(2 if title else 1) * 14.0 + 6.0)
+    else:
+        fig.tight_layout()
     anim = FuncAnimation(fig, update, frames=len(frames), interval=1000.0 * stride / fps, blit=False)
     return anim
 

@@ -28,6 +28,7 @@ from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.colors import ListedColormap, Normalize, to_rgba
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, Rectangle
+from matplotlib.ticker import MultipleLocator
 
 from .._validate import check_choice, check_shape
 from ..world.motion import ACTIONS, CONTACT_JOINTS, Motion
@@ -63,10 +64,18 @@ OBSTACLE_COLOR = "#8c7f6a"
 TRAJECTORY_COLOR = "#f4a3b5"  # NIFTY Fig. 4 draws rollout trajectories in light pink ...
 HIGHLIGHT_COLOR = "#1f5fbf"  # ... and highlights a few in blue.
 PATH_COLOR = "#2ca02c"
+ITEM_COLOR = "#ff7f0e"
 
-_tab20 = matplotlib.colormaps["tab20"]
-# One fixed colour per action label so every figure of the book agrees.
-ACTION_COLORS: dict[str, tuple] = {name: _tab20(i % 20) for i, name in enumerate(ACTIONS)}
+# One fixed colour per action label, grouped by kind (locomotion greens, sitting oranges, lying
+# purples, hand actions pinks and browns) and kept clear of the limb blue and red.
+_ACTION_PALETTE = {
+    "idle": "#c7c7c7", "walk": "#98df8a", "run": "#2ca02c", "turn": "#9edae5", "side_step": "#bcbd22",
+    "sit_down": "#ffbb78", "sit": "#ff7f0e", "stand_up": "#f5d58f", "lie_down": "#c5b0d5", "lie": "#9467bd",
+    "lift": "#e377c2", "reach": "#f7b6d2", "grasp": "#c49c94", "open_door": "#8c564b", "open_drawer": "#dbdb8d",
+}
+ACTION_COLORS: dict[str, tuple] = {
+    name: to_rgba(_ACTION_PALETTE.get(name, matplotlib.colormaps["tab20"](i % 20))) for i, name in enumerate(ACTIONS)
+}
 
 VIEWS = ("front", "side", "top", "3d")
 _VIEW_AXES = {"front": (0, 2), "side": (1, 2), "top": (0, 1)}
@@ -118,8 +127,8 @@ def project(points, view: str) -> np.ndarray:
         points: ``(..., 3)`` metres.
         view: ``"front"``, ``"side"`` or ``"top"`` (see the module table).
     Returns:
-        ``(..., 2)`` metres (horizontal, vertical) in world units; the front view keeps world x,
-        the axes are flipped by :func:`_style_2d_axes` so the picture is seen from the front.
+        ``(..., 2)`` metres (horizontal, vertical). The front view keeps world x; the plots flip
+        that axis so the picture is the one seen from +Y.
     """
     check_choice(view, ("front", "side", "top"), "view")
     points = _to_numpy(points, "points")
@@ -147,23 +156,37 @@ def _style_2d_axes(ax, view: str) -> None:
         ax.invert_xaxis()
 
 
-def _set_3d_limits(ax, points: np.ndarray, margin: float = 0.1, ground: bool = True) -> None:
-    """Equal-scale 3D limits around ``points (N, 3)``, with z starting at the ground."""
+def _set_3d_limits(ax, points: np.ndarray, margin: float = 0.1, ground: bool = True, zoom: float = 1.0,
+                   min_extent: float = 1.0) -> None:
+    """Equal-scale 3D limits around ``points (N, 3)`` metres, with z starting at the ground.
+
+    Each axis spans the data plus ``margin`` (at least ``min_extent`` metres); the box aspect is set
+    to the spans so one metre has the same length along x, y and z.
+    """
     lo = points.min(axis=0) - margin
     hi = points.max(axis=0) + margin
     if ground:
         lo[2] = 0.0
-    centre = (lo + hi) / 2
-    half = (hi - lo).max() / 2
-    lo_xy, hi_xy = centre[:2] - half, centre[:2] + half
-    ax.set_xlim(lo_xy[0], hi_xy[0])
-    ax.set_ylim(lo_xy[1], hi_xy[1])
-    z_hi = max(hi[2], lo[2] + 0.5)
-    ax.set_zlim(lo[2], z_hi)
-    ax.set_box_aspect((2 * half, 2 * half, z_hi - lo[2]))
+    span = hi - lo
+    grow = np.maximum(min_extent - span, 0.0) / 2
+    lo, hi = lo - grow, hi + grow
+    if ground:  # grow upwards only, the ground stays at the bottom
+        hi[2] += grow[2]
+        lo[2] = 0.0
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(lo[2], hi[2])
+    ax.set_box_aspect(tuple(hi - lo), zoom=zoom)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")
+    # Plain white panes and no pane grid: the ground grid carries the scale, and frames stay small.
+    for axis, extent in zip((ax.xaxis, ax.yaxis, ax.zaxis), hi - lo):
+        axis.set_pane_color((1.0, 1.0, 1.0, 0.0))
+        # Few ticks on round metres: foreshortened 3D axes crowd their labels quickly.
+        step = next((s for s in (0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0) if extent / s <= 4.0), extent / 4.0)
+        axis.set_major_locator(MultipleLocator(step))
+    ax.grid(False)
 
 
 def _object_mesh(obj):
@@ -224,7 +247,8 @@ def _draw_skeleton_2d(ax, joints: np.ndarray, view: str, colors: list, linewidth
 
 
 def plot_skeleton(joints, ax=None, view: str = "front", color_by_side: bool = True,
-                  joint_labels: bool = False, color=SPINE_COLOR, linewidth: float = 3.0, ground: bool = True):
+                  joint_labels: bool = False, color=SPINE_COLOR, linewidth: float = 3.0, ground: bool = True,
+                  elev: float = 20.0, azim: float = 60.0):
     """Draw one pose as a stick figure, bones taken from the SMPL-22 ``PARENTS``.
 
     Args:
@@ -236,6 +260,7 @@ def plot_skeleton(joints, ax=None, view: str = "front", color_by_side: bool = Tr
         color: colour of the centre bones (and of every bone when ``color_by_side`` is False).
         linewidth: bone width in points.
         ground: draw the ground line (2D side/front views) or the ground grid (3D).
+        elev, azim: 3D camera angles in degrees (the default looks from the front-right, above).
     Returns:
         The axes.
     """
@@ -250,6 +275,7 @@ def plot_skeleton(joints, ax=None, view: str = "front", color_by_side: bool = Tr
             ax.plot(*joints[[p, j]].T, color=colors[j - 1], linewidth=linewidth, solid_capstyle="round")
         ax.scatter(*joints.T, s=8, color="k", depthshade=False)
         _set_3d_limits(ax, joints, margin=0.15, ground=ground)
+        ax.view_init(elev=elev, azim=azim)
         if ground:
             _draw_ground_grid_3d(ax)
         if joint_labels:
@@ -270,7 +296,7 @@ def plot_skeleton(joints, ax=None, view: str = "front", color_by_side: bool = Tr
     ax.autoscale_view()
     _style_2d_axes(ax, view)
     if color_by_side:
-        ax.legend(handles=_side_legend_handles(), loc="upper right", fontsize=8, frameon=False)
+        ax.legend(handles=_side_legend_handles(), loc="best", fontsize=8, framealpha=0.8)
     return ax
 
 
@@ -326,7 +352,7 @@ def plot_motion_strip(motion, n: int = 6, view: str = "side", ax=None, spacing: 
     # The front view's x axis is flipped, so its strip runs in -x to read left to right.
     direction = -1.0 if view == "front" else 1.0
     if ax is None:
-        _, ax = plt.subplots(figsize=(max(4.0, 1.3 * len(frames)), 3.2))
+        _, ax = plt.subplots(figsize=(max(4.0, 1.3 * len(frames)), 3.2), layout="constrained")
     colors = bone_colors(color_by_side)
     vertical = project(centred, view)[..., 1]
     for k, f in enumerate(frames):
@@ -571,111 +597,135 @@ def plot_foot_heights(motion, ax=None, joints: Sequence[str] = ("left_foot", "ri
 
 
 def _grid_extent(room) -> tuple[float, float, float, float]:
-    """``(x0, x1, y0, y1)`` metres covered by a room's occupancy grid."""
+    """``(x0, x1, y0, y1)`` metres covered by a scene's occupancy grid."""
+    if hasattr(room, "extent"):
+        return tuple(float(v) for v in room.extent)
     occ = np.asarray(room.occupancy)
     cell = float(room.cell_size)
-    # Centre of the first cell and of the last one, via the scene's own conversion.
-    first = np.asarray(room.grid_to_world(np.array([[0, 0]])), dtype=float).reshape(-1)[:2]
-    last = np.asarray(room.grid_to_world(np.array([[occ.shape[0] - 1, occ.shape[1] - 1]])), dtype=float)
-    last = last.reshape(-1)[:2]
+    first = np.asarray(room.grid_to_world(np.array([0, 0])), dtype=float)[:2]
+    last = np.asarray(room.grid_to_world(np.array([occ.shape[0] - 1, occ.shape[1] - 1])), dtype=float)[:2]
     lo = np.minimum(first, last) - cell / 2
     hi = np.maximum(first, last) + cell / 2
     return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
 
 
 def _occupancy_image(room) -> np.ndarray:
-    """The occupancy grid arranged as an image whose column index grows with x and row with y."""
+    """The occupancy grid as an image whose rows follow +y and columns +x (for ``origin="lower"``)."""
     occ = np.asarray(room.occupancy, dtype=bool)
     probe = np.asarray(room.grid_to_world(np.array([[0, 0], [1, 0], [0, 1]])), dtype=float)[:, :2]
-    step_first = probe[1] - probe[0]  # world step of the first grid index
-    image = occ if abs(step_first[1]) > abs(step_first[0]) else occ.T  # rows must follow y
-    row_step = step_first if image is occ else probe[2] - probe[0]
-    col_step = probe[2] - probe[0] if image is occ else step_first
+    row_step, col_step = probe[1] - probe[0], probe[2] - probe[0]
+    if abs(row_step[0]) > abs(row_step[1]):  # first index runs along x: transpose to rows along y
+        occ, row_step, col_step = occ.T, col_step, row_step
     if row_step[1] < 0:
-        image = image[::-1]
+        occ = occ[::-1]
     if col_step[0] < 0:
-        image = image[:, ::-1]
-    return image
+        occ = occ[:, ::-1]
+    return occ
 
 
-def plot_room(room, ax=None, path=None, show_grid: bool = True, annotate: bool = True):
+def plot_room(room, ax=None, path=None, show_grid: bool = True, annotate: bool = True, show_goals: bool = True,
+              object_colors: Optional[Sequence] = None):
     """Top-down room: the navigation occupancy grid, the objects' footprints and an optional path.
 
     Args:
-        room: a ``world.scenes.Room`` (``occupancy (H, W)`` bool, ``cell_size`` metres,
-            ``grid_to_world``, ``objects``).
+        room: a ``world.scenes.Room`` (``occupancy (H, W)`` bool with rows along +y, ``cell_size``
+            metres, ``grid_to_world``, ``objects``; the ``target`` is outlined in blue).
         ax: matplotlib axes; a new figure when ``None``.
-        path: ``(N, 2)`` or ``(N, 3)`` world path in metres, or ``(N, 2)`` int grid cells.
-        show_grid: draw the cell boundaries.
+        path: ``(N, 2)`` or ``(N, 3)`` world path in metres (floats), or ``(N, 2)`` integer grid
+            cells ``[i, j]`` (converted with ``room.grid_to_world``).
+        show_grid: draw the cell boundaries (grids up to 200 cells a side).
         annotate: write object categories.
+        show_goals: draw the target's sit goals as arrows (when the scene has a ``target``).
+        object_colors: one fill colour per object (default: all a neutral brown).
     Returns:
         The axes.
     """
     occ = np.asarray(room.occupancy, dtype=bool)
     check_shape(occ, (None, None), "room.occupancy")
-    ax = ax if ax is not None else plt.subplots(figsize=(6, 6))[1]
+    ax = ax if ax is not None else plt.subplots(figsize=(6.5, 6), layout="constrained")[1]
     x0, x1, y0, y1 = _grid_extent(room)
     image = _occupancy_image(room)
-    ax.imshow(image, origin="lower", extent=(x0, x1, y0, y1), cmap=ListedColormap(["#f7f7f2", "#cfc6b4"]),
+    ax.imshow(image, origin="lower", extent=(x0, x1, y0, y1), cmap=ListedColormap(["#f7f7f2", "#d9cfbd"]),
               vmin=0, vmax=1, interpolation="nearest", zorder=0)
     cell = float(room.cell_size)
     if show_grid and max(image.shape) <= 200:
         xs = np.linspace(x0, x1, image.shape[1] + 1)
         ys = np.linspace(y0, y1, image.shape[0] + 1)
         segs = [[(x, y0), (x, y1)] for x in xs] + [[(x0, y), (x1, y)] for y in ys]
-        ax.add_collection(LineCollection(segs, colors="0.88", linewidths=0.4, zorder=0.5))
-    for k, obj in enumerate(getattr(room, "objects", ())):
-        plot_object_footprint(obj, ax=ax, color=OBSTACLE_COLOR, annotate=annotate, zorder=1,
-                              label="object" if k == 0 else None)
+        ax.add_collection(LineCollection(segs, colors="0.9", linewidths=0.3, zorder=0.5))
+    objects = list(getattr(room, "objects", ()))
+    colors = list(object_colors) if object_colors is not None else [OBSTACLE_COLOR] * len(objects)
+    if len(colors) != len(objects):
+        raise ValueError(f"object_colors: expected {len(objects)} colours, got {len(colors)}")
+    target = getattr(room, "target", None)
+    for k, obj in enumerate(objects):
+        plot_object_footprint(obj, ax=ax, color=colors[k], annotate=annotate, zorder=1 + 0.01 * k,
+                              alpha=0.85, label="object footprint" if k == 0 else None)
+        if obj is target:
+            verts = project(_object_mesh(obj)[0], "top")
+            lo, hi = verts.min(0), verts.max(0)
+            ax.add_patch(Rectangle(lo, *(hi - lo), fill=False, edgecolor=HIGHLIGHT_COLOR, linewidth=1.5,
+                                   zorder=2, label="target"))
+    if show_goals and target is not None and hasattr(target, "sit_goals"):
+        pos, direction = (np.asarray(a, dtype=float) for a in target.sit_goals)
+        ax.quiver(pos[:, 0], pos[:, 1], direction[:, 0], direction[:, 1], color=HIGHLIGHT_COLOR, angles="xy",
+                  scale_units="xy", scale=2.5, width=0.006, zorder=5, label="sit goal")
     if path is not None:
-        pts = _to_numpy(path, "path")
-        if pts.ndim != 2 or pts.shape[1] not in (2, 3):
-            raise ValueError(f"path: expected shape (N, 2) or (N, 3), got {pts.shape}")
-        if np.issubdtype(np.asarray(path).dtype, np.integer) and pts.shape[1] == 2:
-            pts = np.asarray(room.grid_to_world(np.asarray(path)), dtype=float)
+        raw = np.asarray(path.detach().cpu() if isinstance(path, torch.Tensor) else path)
+        if raw.ndim != 2 or raw.shape[1] not in (2, 3):
+            raise ValueError(f"path: expected shape (N, 2) or (N, 3), got {raw.shape}")
+        if np.issubdtype(raw.dtype, np.integer):
+            if raw.shape[1] != 2:
+                raise ValueError(f"path: integer grid cells must have shape (N, 2), got {raw.shape}")
+            pts = np.asarray(room.grid_to_world(raw), dtype=float)
+        else:
+            pts = raw.astype(float)
         ax.plot(pts[:, 0], pts[:, 1], color=PATH_COLOR, linewidth=2, zorder=3, label="path")
         ax.scatter(*pts[0, :2], s=40, color=PATH_COLOR, edgecolors="k", zorder=4, label="start")
-        ax.scatter(*pts[-1, :2], s=70, marker="*", color=PATH_COLOR, edgecolors="k", zorder=4, label="goal")
+        ax.scatter(*pts[-1, :2], s=90, marker="*", color=PATH_COLOR, edgecolors="k", zorder=4, label="end")
     ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, edgecolor="0.2", linewidth=1.2, zorder=2))
     ax.set_xlim(x0 - cell, x1 + cell)
     ax.set_ylim(y0 - cell, y1 + cell)
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    handles = [Patch(facecolor="#cfc6b4", label="occupied cell")]
+    handles = [Patch(facecolor="#d9cfbd", edgecolor="0.7", label="occupied cell")]
     handles += ax.get_legend_handles_labels()[0]
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-    ax.set_title(f"room, occupancy grid ({cell:.2f} m cells)", fontsize=10)
+    ax.set_title(f"top-down view, occupancy grid of {cell:.2f} m cells", fontsize=10)
     return ax
 
 
 def plot_kitchen_top_down(kitchen, ax=None, annotate: bool = True):
-    """Top-down kitchen: floor outline and every object's footprint, labelled by category.
+    """Top-down kitchen: occupancy grid, furniture, floor obstacles and the small items on them.
 
     Args:
-        kitchen: a ``world.scenes.Kitchen`` (``objects``, ``size`` metres; ``occupancy`` drawn when
-            present).
+        kitchen: a ``world.scenes.Kitchen`` (``furniture``, ``obstacles``, ``items``; ``objects`` in
+            that order; ``occupancy``, ``cell_size`` and ``grid_to_world`` as for a room).
         ax: matplotlib axes; a new figure when ``None``.
-        annotate: write object categories.
+        annotate: write the furniture's and obstacles' categories (items are marked by colour).
     Returns:
         The axes.
     """
-    if getattr(kitchen, "occupancy", None) is not None and hasattr(kitchen, "grid_to_world"):
-        ax = plot_room(kitchen, ax=ax, show_grid=False, annotate=annotate)
-        ax.set_title("kitchen, top-down view", fontsize=10)
-        return ax
-    ax = ax if ax is not None else plt.subplots(figsize=(6, 6))[1]
-    objects = list(getattr(kitchen, "objects", ()))
-    cmap = matplotlib.colormaps["Set2"]
-    for k, obj in enumerate(objects):
-        plot_object_footprint(obj, ax=ax, color=cmap(k % 8), annotate=annotate, zorder=1 + 0.01 * k)
-    size = getattr(kitchen, "size", None)
-    if size is not None:
-        w, d = float(size[0]), float(size[1])
-        ax.add_patch(Rectangle((0.0, 0.0), w, d, fill=False, edgecolor="0.2", linewidth=1.2))
-        ax.update_datalim([[0.0, 0.0], [w, d]])
-    ax.autoscale_view()
-    _style_2d_axes(ax, "top")
+    furniture = list(getattr(kitchen, "furniture", ()))
+    obstacles = list(getattr(kitchen, "obstacles", ()))
+    items = list(getattr(kitchen, "items", ()))
+    objects = list(kitchen.objects)
+    if len(objects) != len(furniture) + len(obstacles) + len(items):
+        # A scene without the kitchen's groups: every object is drawn alike.
+        return plot_room(kitchen, ax=ax, show_grid=False, annotate=annotate)
+    colors = [OBSTACLE_COLOR] * len(furniture) + ["0.45"] * len(obstacles) + [ITEM_COLOR] * len(items)
+    ax = plot_room(kitchen, ax=ax, show_grid=False, annotate=False, object_colors=colors)
+    if annotate:
+        for obj in furniture + obstacles:
+            c = project(_object_mesh(obj)[0], "top")
+            centre = (c.min(0) + c.max(0)) / 2
+            ax.text(*centre, obj.category.replace("_", " "), ha="center", va="center", fontsize=7, color="0.1",
+                    zorder=6, bbox=dict(boxstyle="round,pad=0.15", facecolor="white", alpha=0.6, linewidth=0))
+    extra = [Patch(facecolor=OBSTACLE_COLOR, label="furniture"), Patch(facecolor="0.45", label="obstacle"),
+             Patch(facecolor=ITEM_COLOR, label="item (bottle, mug, teapot)")]
+    ax.legend(handles=[Patch(facecolor="#d9cfbd", edgecolor="0.7", label="occupied cell")] + extra,
+              loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     ax.set_title("kitchen, top-down view", fontsize=10)
     return ax
 
@@ -683,7 +733,8 @@ def plot_kitchen_top_down(kitchen, ax=None, annotate: bool = True):
 # ----------------------------------------------------------------------------- voxels
 
 
-def plot_voxels(occupancy, ax=None, threshold: float = 0.05, cmap: str = "viridis", edgecolor="0.3"):
+def plot_voxels(occupancy, ax=None, threshold: float = 0.05, cmap: str = "viridis", edgecolor="0.3",
+                elev: float = 25.0, azim: float = 60.0):
     """SAMP's 8×8×8 interaction code drawn as voxels, opacity and colour growing with occupancy.
 
     Args:
@@ -692,6 +743,7 @@ def plot_voxels(occupancy, ax=None, threshold: float = 0.05, cmap: str = "viridi
         threshold: cells at or below this occupancy are left empty.
         cmap: matplotlib colormap for the occupancy.
         edgecolor: voxel edge colour.
+        elev, azim: camera angles in degrees (the default looks from the front-right, above).
     Returns:
         The axes.
     """
@@ -706,10 +758,11 @@ def plot_voxels(occupancy, ax=None, threshold: float = 0.05, cmap: str = "viridi
     ax.set_ylim(0, occ.shape[1])
     ax.set_zlim(0, occ.shape[2])
     ax.set_box_aspect(occ.shape)
+    ax.view_init(elev=elev, azim=azim)
     ax.set_xlabel("x cell")
     ax.set_ylabel("y cell")
     ax.set_zlabel("z cell")
     mappable = matplotlib.cm.ScalarMappable(cmap=cmap, norm=Normalize(0.0, 1.0))
-    ax.figure.colorbar(mappable, ax=ax, shrink=0.6, pad=0.1, label="occupancy")
+    ax.figure.colorbar(mappable, ax=ax, shrink=0.6, pad=0.15, label="occupancy")
     ax.set_title(f"occupancy voxels ({int(filled.sum())} of {filled.size} above {threshold:g})", fontsize=10)
     return ax

@@ -8,7 +8,7 @@ World conventions: metres, Z up, ground at z = 0, characters and objects face +Y
 """
 from __future__ import annotations
 
-import os
+from contextlib import contextmanager
 from typing import Optional, Sequence
 
 import matplotlib.pyplot as plt
@@ -49,11 +49,25 @@ def _import_pyvista():
         import pyvista
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise ImportError("render functions need pyvista: pip install pyvista") from exc
-    # Headless machines: EGL needs no X server; an explicit user choice is kept.
-    if not os.environ.get("DISPLAY"):
-        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     pyvista.OFF_SCREEN = True
     return pyvista
+
+
+@contextmanager
+def _vtk_errors_only():
+    """Silence VTK's warnings while a window is made: on a headless Linux machine VTK first tries
+    X, warns "bad X server connection", then falls back to EGL or OSMesa and renders fine."""
+    try:
+        from vtkmodules.vtkCommonCore import vtkLogger
+    except ImportError:  # pragma: no cover - older VTK
+        yield
+        return
+    previous = vtkLogger.GetCurrentVerbosityCutoff()
+    vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
+    try:
+        yield
+    finally:
+        vtkLogger.SetStderrVerbosity(previous)
 
 
 def _new_plotter(pyvista, window_size, background):
@@ -104,18 +118,29 @@ def _camera_pose(camera, lo: np.ndarray, hi: np.ndarray, window_size):
     if camera not in _CAMERA_DIRECTIONS:
         raise ValueError(f"camera: expected one of {list(CAMERAS)} or (position, focal_point, up), got {camera!r}")
     direction, up = _CAMERA_DIRECTIONS[camera]
-    direction = np.asarray(direction) / np.linalg.norm(direction)
+    direction = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
     centre = (lo + hi) / 2
-    radius = max(float(np.linalg.norm(hi - lo)) / 2, 0.2)
-    half_fov = np.radians(_VIEW_ANGLE) / 2
-    aspect = window_size[0] / window_size[1]
-    # The bounding sphere must fit the narrower of the two fields of view.
-    half = np.arctan(np.tan(half_fov) * min(1.0, aspect))
-    distance = radius / np.sin(half) * 1.02
+    # Camera basis: looking along -direction, image right and image up.
+    right = np.cross(-direction, up)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, -direction)
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]) - centre
+    tan_v = np.tan(np.radians(_VIEW_ANGLE) / 2)  # VTK's view angle is the vertical field of view
+    tan_h = tan_v * window_size[0] / window_size[1]
+    # Smallest distance at which every corner of the box is inside the frustum, plus a margin.
+    toward = corners @ direction
+    needed = np.maximum(np.abs(corners @ right) / tan_h, np.abs(corners @ true_up) / tan_v) + toward
+    distance = max(float(needed.max()) * 1.08, 0.1)
     return tuple(centre + distance * direction), tuple(centre), up
 
 
-def _ground(pyvista, lo, hi, spacing: float = 0.5, margin: float = 0.6):
+def _ground(pyvista, lo, hi):
+    """A floor plane at z = 0 around the box ``[lo, hi]``, with grid cells of 0.5 m (0.1 m under
+    small props). It stays close to the scene: grid edges that reach under a close camera render
+    as smeared wedges."""
+    size = float(np.max(hi[:2] - lo[:2]))
+    spacing = 0.5 if size >= 0.8 else 0.1
+    margin = min(0.6, max(spacing, 0.5 * size))
     x0 = np.floor((lo[0] - margin) / spacing) * spacing
     x1 = np.ceil((hi[0] + margin) / spacing) * spacing
     y0 = np.floor((lo[1] - margin) / spacing) * spacing
@@ -171,7 +196,8 @@ def render_scene(meshes, *, arrows=None, points=None, camera="iso", window_size=
             ``"top"``, or ``(position (3,), focal_point (3,), view_up (3,))``.
         window_size: ``(width, height)`` pixels.
         background: background colour.
-        ground: draw a light ground plane at z = 0 with 0.5 m grid lines.
+        ground: draw a light ground plane at z = 0 with grid lines every 0.5 m (0.1 m around
+            scenes smaller than 0.8 m).
         return_image: return the image; when False return the open ``pyvista.Plotter`` (the caller
             shows or closes it).
         smooth_shading: smooth normals (sharp box edges kept).
@@ -201,11 +227,20 @@ def render_scene(meshes, *, arrows=None, points=None, camera="iso", window_size=
         lo, hi = allpts.min(0), allpts.max(0)
     else:
         lo, hi = np.array([-1.0, -1.0, 0.0]), np.array([1.0, 1.0, 1.0])
+    camera_pose = _camera_pose(camera, lo, hi, window_size)
+    with _vtk_errors_only():
+        return _draw(pyvista, items, arrow_items, point_items, lo, hi, camera_pose, window_size, background, ground,
+                     return_image, smooth_shading)
+
+
+def _draw(pyvista, items, arrow_items, point_items, lo, hi, camera_pose, window_size, background, ground,
+          return_image, smooth_shading):
+    """Build the plotter of :func:`render_scene` and return its screenshot (or the open plotter)."""
     plotter = _new_plotter(pyvista, window_size, background)
     try:
         for mesh, color in items:
             plotter.add_mesh(mesh, color=color, smooth_shading=smooth_shading, split_sharp_edges=smooth_shading,
-                             specular=0.15)
+                             ambient=0.2, diffuse=0.85, specular=0.1)
         for origin, direction, color, scale in arrow_items:
             length = scale * float(np.linalg.norm(direction))
             if length <= 0:
@@ -217,12 +252,13 @@ def render_scene(meshes, *, arrows=None, points=None, camera="iso", window_size=
             plotter.add_points(pts, color=color, point_size=size, render_points_as_spheres=True)
         if ground:
             plane = _ground(pyvista, lo, hi)
-            plotter.add_mesh(plane, color="#f2f2ee", show_edges=True, edge_color="#c8c8c8", line_width=1,
-                             ambient=0.3, lighting=True)
-        plotter.camera_position = _camera_pose(camera, lo, hi, window_size)
+            # Unlit: the floor keeps one colour at any camera distance and angle.
+            plotter.add_mesh(plane, color="#f4f4f0", show_edges=True, edge_color="#cdcdcd", line_width=1,
+                             lighting=False)
+        plotter.camera_position = camera_pose
         plotter.camera.view_angle = _VIEW_ANGLE
         plotter.reset_camera_clipping_range()
-        plotter.enable_anti_aliasing("fxaa")
+        plotter.enable_anti_aliasing("ssaa")
         if not return_image:
             return plotter
         image = plotter.screenshot(return_img=True)
@@ -338,7 +374,7 @@ def render_objects_grid(objects: Sequence, ncols: int = 5, tile_size=(260, 220),
         obj = objects[k]
         image = render_scene([(obj, colors[k % len(colors)])], camera=camera, window_size=tile_size)
         title = titles[k] if titles is not None else getattr(obj, "category", f"object {k}")
-        show_image(image, ax=ax, title=str(title).replace("_", " "))
+        show_image(image, ax=ax, title=str(title))
     fig.tight_layout()
     return fig
 
