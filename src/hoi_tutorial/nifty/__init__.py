@@ -1,0 +1,9 @@
+"""NIFTY (Kulkarni et al. 2024) at toy scale.
+
+Modules, in the order of the paper:
+
+- ``trajectories``: a small diffusion model over toy walking trajectories (the guidance chapter).
+- ``motion_prior``: the time-reversed HuMoR-style motion prior (§3.3, Appendix A.2).
+- ``anchors``: anchor poses for sitting and lifting across toy subjects and objects (§3.3).
+- ``rollout``: Algorithm 1, tree-based rollouts with PruneCheck, and the synthetic datasets (§3.3).
+"""

@@ -1,0 +1,206 @@
+"""NIFTY's data pipeline: the time-reversed prior's bookkeeping and Algorithm 1's rules.
+
+The tree tests drive ``grow_trees`` with a stub prior whose rollouts the test controls, so the
+branching factors, NTries, PruneCheck and the root-to-node paths are checked exactly.
+"""
+import math
+
+import numpy as np
+import pytest
+import torch
+from torch import nn
+
+from hoi_tutorial.nifty import motion_prior as mp
+from hoi_tutorial.nifty import rollout as ro
+from hoi_tutorial.nifty.anchors import Anchor
+from hoi_tutorial.world.kinematics import forward_kinematics
+from hoi_tutorial.world.mocap import generate_clip
+from hoi_tutorial.world.mocap.poses import standing_pose
+from hoi_tutorial.world.motion import Motion
+from hoi_tutorial.world.objects import make_object
+from hoi_tutorial.world.rotations import matrix_to_rotation_6d
+from hoi_tutorial.world.skeleton import bone_offsets, rest_pelvis_height
+
+
+def _track(motion, idx):
+    return mp.PoseTrack(motion.local_rotations[idx], motion.root_position[idx], motion.joints[idx])
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return generate_clip("walk", seed=3)
+
+
+def test_step_target_and_apply_step_are_inverse(walk):
+    cur, nxt = _track(walk, slice(10, 40)), _track(walk, slice(11, 41))
+    step = mp.step_target(cur, nxt)
+    assert step.shape == (30, mp.STEP_SIZE)
+    rebuilt = mp.apply_step(cur, step, bone_offsets(walk.betas))
+    assert torch.allclose(rebuilt.root_position, nxt.root_position, atol=1e-5)
+    assert torch.allclose(rebuilt.joints, nxt.joints, atol=1e-4)
+
+
+def test_heading_state_is_invariant_to_where_the_motion_happens(walk):
+    moved = walk.transformed(yaw=1.3, translation=(2.0, -1.0, 0.0))
+    a = mp.heading_state(_track(walk, slice(0, 20)), _track(walk, slice(1, 21)))
+    b = mp.heading_state(_track(moved, slice(0, 20)), _track(moved, slice(1, 21)))
+    assert a.shape == (20, mp.STATE_SIZE)
+    assert torch.allclose(a, b, atol=1e-4)
+
+
+def test_training_windows_are_time_reversed(walk):
+    windows = mp.training_windows([walk], window=4)
+    # The first window starts at the clip's last frame: the prior learns to predict the past.
+    assert torch.allclose(windows["root_position"][0, 0], walk.root_position[-1])
+    assert torch.allclose(windows["root_position"][0, 1], walk.root_position[-2])
+    # Reversed velocities flip sign: the reversed pelvis moves opposite to the real walk.
+    real = walk.root_position[-1] - walk.root_position[-2]
+    rev = windows["root_position"][0, 1] - windows["root_position"][0, 0]
+    assert torch.allclose(rev, -real)
+
+
+def test_prior_trains_and_rolls_out(walk):
+    clips = [walk, generate_clip("walk", seed=4)]
+    model, result = mp.train_reverse_prior(clips, mp.PriorConfig(steps=150, window=4, width=64, own_prediction_max=0.0, batch_size=32), progress=False)
+    # The KL weight anneals up from 0, so compare the reconstruction term.
+    rec = result.extra["reconstruction"]
+    assert np.mean(rec[-10:]) < 0.5 * np.mean(rec[:10])
+    g = torch.Generator().manual_seed(0)
+    prev, start = _track(walk, slice(-2, -1)), _track(walk, slice(-1, None))
+    out = mp.rollout(model, prev, start, bone_offsets(walk.betas)[None], 12, g)
+    assert out.joints.shape == (1, 12, 22, 3)
+    assert torch.isfinite(out.joints).all()
+
+
+# ---------------------------------------------------------------- Algorithm 1 with a stub prior
+class StubPrior(nn.Module):
+    """Moves 5 cm per frame along its heading; the first ``bad_calls`` rollout calls sink into the floor."""
+
+    def __init__(self, bad_calls=0, sink_all=False):
+        super().__init__()
+        self.register_buffer("x_mean", torch.zeros(mp.STATE_SIZE))
+        self.calls = 0
+        self.bad_calls = bad_calls
+        self.sink_all = sink_all
+        self.frames_per_call = None
+
+    def sample_step(self, x, generator, temperature=1.0):
+        n = x.shape[0]
+        step = torch.zeros(n, mp.STEP_SIZE)
+        rest6d = matrix_to_rotation_6d(torch.eye(3))
+        step[:, 3:9] = rest6d
+        step[:, 1] = 0.05  # 5 cm forward per frame
+        self.calls += 1
+        rollout_index = (self.calls - 1) // self.frames_per_call
+        sinking = self.sink_all or rollout_index < self.bad_calls
+        step[:, 2] = 0.3 if sinking else float(rest_pelvis_height())
+        return step
+
+
+def _anchor(obj):
+    local, root = standing_pose()
+    _, joints = forward_kinematics(local, root)
+    pose = mp.PoseTrack(local, root, joints)
+    clip = Motion(local[None].repeat(3, 1, 1, 1), root[None].repeat(3, 1))
+    return Anchor("sit", pose, pose, torch.zeros(10), 0, obj, clip)
+
+
+@pytest.fixture(scope="module")
+def far_object():
+    return make_object("box", seed=0).placed(-8.0, -8.0, 0.0)
+
+
+def test_tree_branching_when_every_rollout_is_valid(far_object):
+    config = ro.TreeConfig(max_depth=3, frames_per_node=6, min_start_distance=0.0)
+    stub = StubPrior()
+    stub.frames_per_call = config.frames_per_node
+    trees = ro.grow_trees(stub, [_anchor(far_object)], torch.Generator().manual_seed(0), config)
+    tree = trees[0]
+    depths = [n.depth for n in tree.nodes]
+    # B = 6 for the nodes at depths 1 and 2, B = 2 deeper: 6, 36, 72 nodes.
+    assert depths.count(1) == 6 and depths.count(2) == 36 and depths.count(3) == 72
+    assert all(len(tree.nodes[i].children) == 6 for i, d in enumerate(depths) if d == 1)
+    assert all(len(tree.nodes[i].children) == 2 for i, d in enumerate(depths) if d == 2)
+    assert tree.survival_rate() == {1: 1.0, 2: 1.0, 3: 1.0}
+    # Every child took exactly one try (the first passes).
+    assert tree.tries_per_depth == {1: 6, 2: 36, 3: 72}
+
+
+def test_paths_end_exactly_in_the_anchor(far_object):
+    config = ro.TreeConfig(max_depth=2, frames_per_node=5, min_start_distance=0.0)
+    stub = StubPrior()
+    stub.frames_per_call = config.frames_per_node
+    anchor = _anchor(far_object)
+    tree = ro.grow_trees(stub, [anchor], torch.Generator().manual_seed(0), config)[0]
+    paths = ro.tree_paths(tree)
+    assert len(paths) == 6 + 36  # one per node (root excluded)
+    for motion in paths:
+        assert len(motion) == 1 + config.frames_per_node * motion.meta["depth"]
+        assert torch.equal(motion.local_rotations[-1], anchor.pose.local_rotations)
+        assert torch.equal(motion.root_position[-1], anchor.pose.root_position)
+        # The stub moves along +Y in reversed time, so played forwards the path starts further out.
+        assert motion.root_position[0, 1] > motion.root_position[-1, 1]
+    leaves = ro.tree_paths(tree, leaves_only=True)
+    assert len(leaves) == 36
+
+
+def test_rollout_tries_until_prune_check_passes(far_object):
+    # The first 5 tries of every child sink (PruneCheck fails); the 6th passes.
+    config = ro.TreeConfig(max_depth=1, frames_per_node=4, tries_per_chunk=1, n_tries=20, min_start_distance=0.0)
+    stub = StubPrior(bad_calls=5)  # one rollout call per chunk covers the 6 children's next try
+    stub.frames_per_call = config.frames_per_node
+    tree = ro.grow_trees(stub, [_anchor(far_object)], torch.Generator().manual_seed(0), config)[0]
+    assert tree.created_per_depth == {1: 6}
+    assert tree.tries_per_depth == {1: 36}
+    assert tree.failures["sinking"] == 30
+
+
+def test_rollout_gives_up_after_n_tries(far_object):
+    config = ro.TreeConfig(max_depth=2, frames_per_node=4, n_tries=7, tries_per_chunk=3, min_start_distance=0.0)
+    stub = StubPrior(sink_all=True)
+    stub.frames_per_call = config.frames_per_node
+    tree = ro.grow_trees(stub, [_anchor(far_object)], torch.Generator().manual_seed(0), config)[0]
+    assert len(tree.nodes) == 1  # only the root: RollOut returned null for every child
+    assert tree.tries_per_depth == {1: 6 * 7}
+    assert tree.survival_rate() == {1: 0.0}
+
+
+def test_prune_check_flags_each_failure(walk):
+    box = make_object("box", seed=0)
+    n = 5
+    seg = mp.PoseTrack(walk.local_rotations[None, :30].repeat(n, 1, 1, 1, 1),
+                       walk.root_position[None, :30].repeat(n, 1, 1), walk.joints[None, :30].repeat(n, 1, 1, 1))
+    seg.root_position = seg.root_position.clone()
+    seg.local_rotations = seg.local_rotations.clone()
+    seg.root_position[1, :, 2] -= 0.2  # sinks
+    seg.root_position[2, :, 2] += 0.5  # floats
+    seg.local_rotations[3, :, 4] = torch.tensor([[1.0, 0, 0], [0, -1.0, 0], [0, 0, -1.0]])  # knee turned 180°
+    still = walk.local_rotations[0:1].repeat(30, 1, 1, 1)
+    seg.local_rotations[4] = still
+    seg.root_position[4] = walk.root_position[0:1].repeat(30, 1)
+    _, joints = forward_kinematics(seg.local_rotations, seg.root_position, bone_offsets(None))
+    seg.joints = joints
+    far = box.placed(20.0, 20.0, 0.0)
+    checks = ro.prune_check(seg, torch.zeros(n, 10), [far] * n, torch.zeros(n))
+    assert checks["valid"].tolist() == [True, False, False, False, False]
+    assert bool(checks["sinking"][1]) and bool(checks["floating"][2])
+    assert bool(checks["unnatural"][3]) and bool(checks["stationary"][4])
+    # The same walk through a box placed on its path collides.
+    on_path = box.placed(float(walk.root_position[15, 0]), float(walk.root_position[15, 1]), 0.0)
+    hit = ro.prune_check(seg, torch.zeros(n, 10), [on_path] * n, torch.zeros(n))
+    assert bool(hit["collision"][0])
+
+
+def test_branching_factor_follows_the_paper():
+    config = ro.TreeConfig()
+    assert [ro.branching_factor(d, config) for d in range(5)] == [6, 6, 2, 2, 2]
+
+
+def test_joint_limits_from_data_accept_the_data(walk):
+    limits = ro.joint_limits_from([walk])
+    assert limits.shape == (22,)
+    assert math.isclose(float(limits[0]), math.pi, rel_tol=1e-6)
+    seg = mp.PoseTrack(walk.local_rotations[None, :30], walk.root_position[None, :30], walk.joints[None, :30])
+    far = make_object("box", seed=0).placed(20.0, 20.0, 0.0)
+    checks = ro.prune_check(seg, walk.betas[None], [far], torch.zeros(1), ro.PruneConfig(joint_limits=limits))
+    assert not bool(checks["unnatural"][0])
