@@ -51,6 +51,7 @@ __all__ = [
     "grow_trees",
     "tree_paths",
     "InteractionSequence",
+    "start_distance",
     "interaction_dataset",
 ]
 
@@ -69,7 +70,7 @@ class TreeConfig:
         tries_per_chunk: tries drawn at once per child (speed only; results are unchanged).
         temperature: scale of the prior's latent standard deviation.
         min_start_distance: post-filter, metres: drop sequences whose first frame's pelvis is
-            nearer than this to the object's surface (NIFTY: 1 m).
+            nearer than this to the object (NIFTY: 1 m; see :func:`start_distance`).
     """
 
     max_depth: int = 3
@@ -368,18 +369,23 @@ class InteractionSequence:
     anchor: Anchor
 
 
+def start_distance(motion: Motion, obj) -> float:
+    """Metres from the first frame's pelvis to the object, in the ground plane.
+
+    NIFTY filters out "sequences that start within 1 meter of the object" without saying how the
+    distance is measured; we take the object's position (its canonical origin, the centre of its
+    footprint), as an object pose from BEHAVE gives it.
+    """
+    centre = torch.as_tensor(np.asarray(obj.pose)[:2, 3], dtype=motion.root_position.dtype)
+    return float((motion.root_position[0, :2] - centre).norm())
+
+
 def interaction_dataset(trees: Sequence[MotionTree], config: Optional[TreeConfig] = None) -> tuple[list, dict]:
     """All root-to-node paths of all trees, minus those starting within ``min_start_distance`` m.
 
     Returns ``(sequences, stats)`` with ``stats`` counting the paths before and after the filter.
     """
     config = config or TreeConfig()
-    kept, total = [], 0
-    for tree in trees:
-        for motion in tree_paths(tree):
-            total += 1
-            start = motion.root_position[0].double()
-            if float(tree.anchor.obj.sdf(start[None])[0]) < config.min_start_distance:
-                continue
-            kept.append(InteractionSequence(motion, tree.anchor.obj, tree.anchor))
-    return kept, {"paths": total, "kept": len(kept), "filtered_near_start": total - len(kept)}
+    paths = [InteractionSequence(m, tree.anchor.obj, tree.anchor) for tree in trees for m in tree_paths(tree)]
+    kept = [p for p in paths if start_distance(p.motion, p.obj) >= config.min_start_distance]
+    return kept, {"paths": len(paths), "kept": len(kept), "filtered_near_start": len(paths) - len(kept)}

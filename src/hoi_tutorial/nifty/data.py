@@ -1,0 +1,200 @@
+"""NIFTY's synthetic interaction data, end to end and cached (§3.3).
+
+1. toy mocap (the stand-in for AMASS) -> 2. the time-reversed prior trained on it ->
+3. anchors for the interaction across toy subjects and objects -> 4. one tree per anchor
+(Algorithm 1) -> 5. every root-to-node path played forwards, minus those starting within 1 m.
+
+Each stage goes through the artifact cache, keyed by its configuration and by this package's code.
+Objects and anchors are cheap and deterministic, so they are regenerated rather than stored;
+the cache keeps the trained prior and the rollout paths.
+
+Scaling (paper -> toy): 174 sitting / 72 lifting anchors from 7 subjects -> 4 subjects x 3 anchors;
+tree depth 7 -> 3; 200K / 110K sequences -> a few hundred; HuMoR trained on AMASS for days ->
+the prior trained on a few dozen toy clips for under a minute.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+import torch
+
+from .._validate import check_choice
+from ..infra import by_scale, load_or_build, state_dict_to_cpu
+from ..world import mocap as mocap_module
+from ..world.motion import FPS, Motion, action_id
+from . import anchors as anchors_module
+from . import motion_prior, rollout
+from .anchors import Anchor, collect_anchors
+from .motion_prior import PriorConfig, ReversePrior, train_reverse_prior
+from .rollout import (InteractionSequence, PruneConfig, TreeConfig, grow_trees, joint_limits_from,
+                      start_distance)
+
+__all__ = [
+    "PRIOR_MOCAP_KINDS",
+    "SyntheticDataConfig",
+    "synthetic_data_config",
+    "prior_training_clips",
+    "trained_prior",
+    "SyntheticDataset",
+    "synthesize",
+]
+
+# What the scene-unaware prior learns from (NIFTY: AMASS without jumping/dancing): locomotion,
+# standing, and the sitting and lifting transitions, with no object in the state.
+PRIOR_MOCAP_KINDS = ("walk", "turn", "side_step", "idle", "sit", "lift")
+
+
+@dataclass(frozen=True)
+class SyntheticDataConfig:
+    """Everything that determines a synthetic dataset (the cache key).
+
+    Attributes:
+        action: ``"sit"`` or ``"lift"``.
+        clips_per_kind: toy-mocap clips per kind of ``PRIOR_MOCAP_KINDS`` for the prior.
+        mocap_subjects: toy subjects in the prior's training mocap.
+        n_subjects: subjects the anchors come from (NIFTY: 7).
+        anchors_per_subject: anchors per subject (NIFTY: ~25 sitting, ~10 lifting).
+        prior: the prior's sizes and training settings.
+        tree: Algorithm 1's settings.
+        prune: PruneCheck thresholds (the joint limits are derived from the mocap).
+        seed: base seed.
+    """
+
+    action: str = "sit"
+    clips_per_kind: int = 8
+    mocap_subjects: int = 4
+    n_subjects: int = 4
+    anchors_per_subject: int = 3
+    prior: PriorConfig = field(default_factory=PriorConfig)
+    tree: TreeConfig = field(default_factory=TreeConfig)
+    prune: PruneConfig = field(default_factory=PruneConfig)
+    seed: int = 0
+
+
+def synthetic_data_config(action: str, scale: str = "toy", seed: int = 0) -> SyntheticDataConfig:
+    """The preset for ``scale`` (``toy``: CPU minutes; ``small``; ``paper``: NIFTY's sizes)."""
+    check_choice(action, ("sit", "lift"), "action")
+    anchors_paper = 25 if action == "sit" else 10
+    return SyntheticDataConfig(
+        action=action,
+        clips_per_kind=by_scale(scale, toy=8, small=30, paper=200),
+        mocap_subjects=by_scale(scale, toy=4, small=7, paper=20),
+        n_subjects=by_scale(scale, toy=4, small=7, paper=7),
+        anchors_per_subject=by_scale(scale, toy=3, small=8, paper=anchors_paper),
+        prior=PriorConfig(
+            steps=by_scale(scale, toy=1000, small=10000, paper=100000),
+            width=by_scale(scale, toy=256, small=512, paper=1024),
+            latent=by_scale(scale, toy=24, small=48, paper=48),
+            seed=seed,
+        ),
+        tree=TreeConfig(max_depth=by_scale(scale, toy=3, small=5, paper=7)),
+        prune=PruneConfig(),
+        seed=seed,
+    )
+
+
+def prior_training_clips(config: SyntheticDataConfig) -> list[Motion]:
+    """The toy mocap the prior is trained on (deterministic for the seed)."""
+    return mocap_module.generate_dataset(config.clips_per_kind, seed=config.seed,
+                                         kinds=PRIOR_MOCAP_KINDS, subjects=config.mocap_subjects)
+
+
+def trained_prior(config: SyntheticDataConfig, device: str = "cpu", progress: bool = True):
+    """The reverse prior for ``config``, trained once and then loaded from the artifact cache.
+
+    Returns ``(model, info)`` where ``info`` holds the training losses and seconds.
+    """
+    def build():
+        clips = prior_training_clips(config)
+        model, result = train_reverse_prior(clips, config.prior, device=device, progress=progress)
+        return {"state": state_dict_to_cpu(model), "losses": torch.tensor(result.losses),
+                "seconds": float(result.seconds), "n_clips": len(clips),
+                "n_frames": int(sum(len(c) for c in clips))}
+
+    key = {"clips_per_kind": config.clips_per_kind, "mocap_subjects": config.mocap_subjects,
+           "prior": dataclasses.asdict(config.prior), "seed": config.seed, "kinds": PRIOR_MOCAP_KINDS}
+    artifact = load_or_build("nifty_reverse_prior", key, build, code=(motion_prior, mocap_module))
+    model = ReversePrior(config.prior)
+    model.load_state_dict(artifact["state"])
+    info = {k: v for k, v in artifact.items() if k != "state"}
+    return model.eval(), info
+
+
+@dataclass
+class SyntheticDataset:
+    """The result of :func:`synthesize`.
+
+    Attributes:
+        config: the configuration.
+        anchors: the anchors, one tree each.
+        sequences: kept training sequences (forward motions ending in their anchor, with objects).
+        leaves: per anchor, the indices into ``all_paths`` of its root-to-leaf paths (Fig. 4).
+        all_paths: every root-to-node path before the 1 m filter, as ``InteractionSequence``.
+        tree_stats: per anchor, survival rates and failure counts of Algorithm 1.
+        stats: totals (paths, kept, filtered) and the prior's training info.
+    """
+
+    config: SyntheticDataConfig
+    anchors: list
+    sequences: list
+    leaves: list
+    all_paths: list
+    tree_stats: list
+    stats: dict
+
+
+def _paths_payload(trees) -> dict:
+    rots, roots, anchor_idx, depth, leaf = [], [], [], [], []
+    stats = []
+    for a, tree in enumerate(trees):
+        for motion in rollout.tree_paths(tree):
+            node = tree.nodes[motion.meta["node"]]
+            rots.append(motion.local_rotations)
+            roots.append(motion.root_position)
+            anchor_idx.append(a)
+            depth.append(motion.meta["depth"])
+            leaf.append(not node.children)
+        stats.append({
+            "attempts": {str(k): v for k, v in tree.attempts_per_depth.items()},
+            "created": {str(k): v for k, v in tree.created_per_depth.items()},
+            "tries": {str(k): v for k, v in tree.tries_per_depth.items()},
+            "passed": {str(k): v for k, v in tree.passed_per_depth.items()},
+            "failures": dict(tree.failures),
+        })
+    return {"local_rotations": rots, "root_position": roots, "anchor": np.array(anchor_idx, dtype=np.int64),
+            "depth": np.array(depth, dtype=np.int64), "leaf": np.array(leaf, dtype=bool), "trees": stats}
+
+
+def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool = True) -> SyntheticDataset:
+    """Run (or load) the whole synthetic-data pipeline for one interaction."""
+    prior, prior_info = trained_prior(config, device=device, progress=progress)
+    anchors = collect_anchors(config.action, config.n_subjects, config.anchors_per_subject, config.seed)
+
+    def build():
+        limits = joint_limits_from(prior_training_clips(config))
+        prune = dataclasses.replace(config.prune, joint_limits=limits)
+        generator = torch.Generator().manual_seed(config.seed)
+        trees = grow_trees(prior, anchors, generator, config.tree, prune)
+        return _paths_payload(trees)
+
+    key = {"config": dataclasses.asdict(config)}
+    payload = load_or_build(f"nifty_{config.action}_rollouts", key, build,
+                            code=(motion_prior, rollout, anchors_module, mocap_module))
+    action = action_id(config.action)
+    all_paths = []
+    for rots, roots, a, d in zip(payload["local_rotations"], payload["root_position"], payload["anchor"], payload["depth"]):
+        anchor: Anchor = anchors[int(a)]
+        T = rots.shape[0]
+        motion = Motion(rots, roots, anchor.betas, FPS, actions=np.full(T, action, dtype=np.int64),
+                        meta={"depth": int(d), "anchor_frame": T - 1, "action": config.action,
+                              "subject": anchor.subject, "anchor": int(a)})
+        all_paths.append(InteractionSequence(motion, anchor.obj, anchor))
+    sequences = [p for p in all_paths if start_distance(p.motion, p.obj) >= config.tree.min_start_distance]
+    leaves = [[i for i in range(len(all_paths)) if payload["anchor"][i] == a and payload["leaf"][i]]
+              for a in range(len(anchors))]
+    stats = {"paths": len(all_paths), "kept": len(sequences), "filtered_near_start": len(all_paths) - len(sequences),
+             "prior": prior_info}
+    return SyntheticDataset(config, anchors, sequences, leaves, all_paths, payload["trees"], stats)
