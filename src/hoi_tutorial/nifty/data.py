@@ -8,8 +8,8 @@ Each stage goes through the artifact cache, keyed by its configuration and by th
 Objects and anchors are cheap and deterministic, so they are regenerated rather than stored;
 the cache keeps the trained prior and the rollout paths.
 
-Scaling (paper -> toy): 174 sitting / 72 lifting anchors from 7 subjects -> 4 subjects x 3 anchors;
-tree depth 7 -> 3; 200K / 110K sequences -> a few hundred; HuMoR trained on AMASS for days ->
+Scaling (paper -> toy): 174 sitting / 72 lifting anchors from 7 subjects -> 4 subjects x 2 anchors;
+tree depth 7 -> 4; 200K / 110K sequences -> a few hundred; HuMoR trained on AMASS for days ->
 the prior trained on a few dozen toy clips for under a minute.
 """
 from __future__ import annotations
@@ -40,6 +40,9 @@ __all__ = [
     "trained_prior",
     "SyntheticDataset",
     "synthesize",
+    "survival_by_depth",
+    "failure_counts",
+    "recheck_sequences",
 ]
 
 # What the scene-unaware prior learns from (NIFTY: AMASS without jumping/dancing): locomotion,
@@ -83,14 +86,14 @@ def synthetic_data_config(action: str, scale: str = "toy", seed: int = 0) -> Syn
         clips_per_kind=by_scale(scale, toy=8, small=30, paper=200),
         mocap_subjects=by_scale(scale, toy=4, small=7, paper=20),
         n_subjects=by_scale(scale, toy=4, small=7, paper=7),
-        anchors_per_subject=by_scale(scale, toy=3, small=8, paper=anchors_paper),
+        anchors_per_subject=by_scale(scale, toy=2, small=8, paper=anchors_paper),
         prior=PriorConfig(
             steps=by_scale(scale, toy=1000, small=10000, paper=100000),
             width=by_scale(scale, toy=256, small=512, paper=1024),
             latent=by_scale(scale, toy=24, small=48, paper=48),
             seed=seed,
         ),
-        tree=TreeConfig(max_depth=by_scale(scale, toy=3, small=5, paper=7)),
+        tree=TreeConfig(max_depth=by_scale(scale, toy=4, small=5, paper=7)),
         prune=PruneConfig(),
         seed=seed,
     )
@@ -198,3 +201,58 @@ def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool 
     stats = {"paths": len(all_paths), "kept": len(sequences), "filtered_near_start": len(all_paths) - len(sequences),
              "prior": prior_info}
     return SyntheticDataset(config, anchors, sequences, leaves, all_paths, payload["trees"], stats)
+
+
+def survival_by_depth(dataset: SyntheticDataset) -> dict:
+    """Over all trees, per depth: RollOut calls, children created, tries drawn, tries passed.
+
+    Returns ``{depth: {"attempts", "created", "tries", "passed", "survival", "pass_rate"}}`` where
+    ``survival`` = created / attempts (a child slot got a motion within NTries) and ``pass_rate`` =
+    passed / tries (a single rollout passed PruneCheck).
+    """
+    table: dict = {}
+    for stats in dataset.tree_stats:
+        for name in ("attempts", "created", "tries", "passed"):
+            for depth, count in stats[name].items():
+                row = table.setdefault(int(depth), {"attempts": 0, "created": 0, "tries": 0, "passed": 0})
+                row[name] += int(count)
+    for row in table.values():
+        row["survival"] = row["created"] / row["attempts"] if row["attempts"] else float("nan")
+        row["pass_rate"] = row["passed"] / row["tries"] if row["tries"] else float("nan")
+    return dict(sorted(table.items()))
+
+
+def failure_counts(dataset: SyntheticDataset) -> dict:
+    """PruneCheck failures by reason over all tries of all trees (a try can fail several checks)."""
+    counts: dict = {}
+    for stats in dataset.tree_stats:
+        for reason, n in stats["failures"].items():
+            counts[reason] = counts.get(reason, 0) + int(n)
+    return counts
+
+
+def recheck_sequences(dataset: SyntheticDataset, sequences=None) -> torch.Tensor:
+    """Run PruneCheck again on every node of every sequence, as the trees saw them.
+
+    A sequence of ``1 + d * F`` frames is reversed and cut after the anchor frame into ``d``
+    nodes of ``F`` frames; each node is checked against the anchor's own penetration depth with
+    the same thresholds and joint limits. Returns ``(N,)`` bool: every node of the sequence passes.
+    """
+    sequences = dataset.sequences if sequences is None else sequences
+    config = dataset.config
+    limits = joint_limits_from(prior_training_clips(config))
+    prune = dataclasses.replace(config.prune, joint_limits=limits)
+    F = config.tree.frames_per_node
+    ok = []
+    for seq in sequences:
+        rev = seq.motion.reversed()
+        depth = (len(rev) - 1) // F
+        if depth * F + 1 != len(rev):
+            raise ValueError(f"sequence of {len(rev)} frames is not 1 + depth x {F}")
+        idx = torch.arange(1, 1 + depth * F).reshape(depth, F)
+        segment = motion_prior.PoseTrack(rev.local_rotations[idx], rev.root_position[idx], rev.joints[idx])
+        anchor_depth = torch.full((depth,), rollout.anchor_penetration(seq.anchor))
+        checks = rollout.prune_check(segment, seq.motion.betas[None].expand(depth, -1), [seq.obj] * depth,
+                                     anchor_depth, prune)
+        ok.append(bool(checks["valid"].all()))
+    return torch.tensor(ok, dtype=torch.bool)

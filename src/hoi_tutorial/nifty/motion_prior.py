@@ -166,6 +166,32 @@ def apply_step(cur: PoseTrack, step: torch.Tensor, offsets: torch.Tensor) -> Pos
     return PoseTrack(local, root, joints)
 
 
+_LEG_CHAINS = ((1, 4, 7, 10), (2, 5, 8, 11))  # hip, knee, ankle, foot of each leg
+
+
+def leg_joint_positions(step: torch.Tensor, cur: PoseTrack, offsets: torch.Tensor) -> torch.Tensor:
+    """Positions ``(..., 8, 3)`` of both legs' hip, knee, ankle and foot after a step, in the
+    current heading frame: forward kinematics over the leg chains only (cheap to differentiate).
+
+    Args:
+        step: ``(..., STEP_SIZE)`` un-normalised decoder output.
+        cur: current poses (their joint rotations receive the residual).
+        offsets: ``(..., 22, 3)`` bone offsets.
+    """
+    root = step[..., 0:3]
+    glob = rotation_6d_to_matrix(step[..., 3:9])
+    joints6d = matrix_to_rotation_6d(cur.local_rotations[..., 1:, :, :])
+    local = rotation_6d_to_matrix(joints6d + step[..., 9:].unflatten(-1, (NUM_JOINTS - 1, 6)))
+    out = []
+    for chain in _LEG_CHAINS:
+        g, p = glob, root
+        for j in chain:
+            p = p + (g @ offsets[..., j, :, None])[..., 0]
+            g = g @ local[..., j - 1, :, :]
+            out.append(p)
+    return torch.stack(out, dim=-2)
+
+
 def _track_of(motion: Motion) -> PoseTrack:
     return PoseTrack(motion.local_rotations, motion.root_position, motion.joints)
 
@@ -189,6 +215,7 @@ class PriorConfig:
         kl_weight: final weight of the KL term (annealed from 0 over the first third).
         own_prediction_max: final probability of feeding the model's own prediction.
         input_noise: std of Gaussian noise added to normalised inputs (robustness).
+        leg_weight: weight of the squared error (m²) of the leg joints' positions after the step.
         seed: training seed.
     """
 
@@ -202,6 +229,7 @@ class PriorConfig:
     kl_weight: float = 3e-3
     own_prediction_max: float = 0.5
     input_noise: float = 0.02
+    leg_weight: float = 100.0
     seed: int = 0
 
 
@@ -311,7 +339,9 @@ def train_reverse_prior(motions: Sequence[Motion], config: Optional[PriorConfig]
                         device: str = "cpu", progress: bool = True):
     """Train the reverse prior on reversed clips with scheduled sampling.
 
-    Loss per step (HuMoR): ``||Δ̂ - Δ||²`` in normalised units ``+ w_KL · KL(q(z|x,Δ) || p(z|x))``,
+    Loss per step (HuMoR): ``||Δ̂ - Δ||²`` in normalised units, plus ``w_legs ·`` the squared error
+    of the leg joints' positions after the step (forward kinematics of the predicted rotations),
+    ``+ w_KL · KL(q(z|x,Δ) || p(z|x))``,
     where the target ``Δ`` always leads to the ground-truth next frame, also when the input came
     from the model's own prediction.
     With probability ``p_own`` (0 for the first third of training, then rising linearly to
@@ -355,7 +385,10 @@ def train_reverse_prior(motions: Sequence[Motion], config: Optional[PriorConfig]
             mu_p, logvar_p = model.prior(xn)
             z = mu_q + torch.exp(0.5 * logvar_q) * batch["eps"][t - 1]
             yn_hat = model.decode(xn, z)
-            rec_total = rec_total + (yn_hat - yn).square().mean()
+            # HuMoR also supervises joint positions; the legs' carry the ground contact.
+            legs_hat = leg_joint_positions(yn_hat * model.y_std + model.y_mean, cur, offsets)
+            legs = leg_joint_positions(y, cur, offsets)
+            rec_total = rec_total + (yn_hat - yn).square().mean() + config.leg_weight * (legs_hat - legs).square().sum(-1).mean()
             kl_total = kl_total + gaussian_kl(mu_q, logvar_q, mu_p, logvar_p).mean()
             if bool(batch["coins"][t - 1] < p_own):
                 # Scheduled sampling: continue from the model's own (detached) prediction.

@@ -19,7 +19,7 @@ a level, every ``RollOut`` of every tree is drawn in one batch. The tries of one
 in chunks and the first passing try in try order is kept, so the result is the same as trying one
 after another, only faster.
 
-Scaled down: depth 3 (NIFTY: 7) and fewer anchors at ``toy``; NTries, the branching factors and
+Scaled down: depth 4 (NIFTY: 7) and fewer anchors at ``toy``; NTries, the branching factors and
 the 1-second nodes are the paper's.
 """
 from __future__ import annotations
@@ -51,6 +51,7 @@ __all__ = [
     "grow_trees",
     "tree_paths",
     "InteractionSequence",
+    "anchor_penetration",
     "start_distance",
     "interaction_dataset",
 ]
@@ -61,7 +62,7 @@ class TreeConfig:
     """Settings of Algorithm 1.
 
     Attributes:
-        max_depth: depth of the tree in nodes (NIFTY: 7; toy: 3).
+        max_depth: depth of the tree in nodes (NIFTY: 7; toy preset: 4).
         frames_per_node: frames per node (NIFTY: 30, one second at 30 fps).
         n_tries: rollout attempts per child, ``NTries`` (NIFTY: 20).
         branching_shallow: children of nodes at depths 0 and 1, i.e. the sixfold branching that
@@ -247,7 +248,8 @@ def _stack(tracks: Sequence[PoseTrack]) -> PoseTrack:
                      torch.stack([t.joints for t in tracks]))
 
 
-def _anchor_depth(anchor: Anchor) -> float:
+def anchor_penetration(anchor: Anchor) -> float:
+    """Metres the anchor pose itself reaches into its object (0 when it only touches it)."""
     glob, joints = forward_kinematics(anchor.pose.local_rotations, anchor.pose.root_position, bone_offsets(anchor.betas))
     verts = body_vertices(glob, joints, anchor.betas)
     return float((-anchor.obj.sdf(verts.double())).clamp_min(0.0).max())
@@ -263,7 +265,7 @@ def grow_trees(prior: ReversePrior, anchors: Sequence[Anchor], generator: torch.
     for i, a in enumerate(anchors):
         root = TreeNode(0, None, None, _take(start, i), _take(prev, i))
         trees.append(MotionTree(a, [root]))
-    anchor_depths = torch.tensor([_anchor_depth(a) for a in anchors])
+    anchor_depths = torch.tensor([anchor_penetration(a) for a in anchors])
     betas_all = torch.stack([a.betas for a in anchors])
 
     frontier = [(t, 0) for t in range(len(trees))]  # (tree, node) pairs of the current level
