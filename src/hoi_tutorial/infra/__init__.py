@@ -9,7 +9,7 @@ from .cache import (
     load_or_build,
     state_dict_to_cpu,
 )
-from .device import choose_device
+from .device import choose_device, one_thread, single_threaded
 from .presets import SCALES, ScalePreset, by_scale, check_scale, preset
 from .seeding import check_seed, rng, seed_everything
 from .tables import format_seconds, side_by_side
@@ -18,7 +18,7 @@ from .training import TrainerConfig, TrainResult, learning_rate_factor, move_to_
 __all__ = [
     "SCALES", "ScalePreset", "by_scale", "check_scale", "preset",
     "check_seed", "rng", "seed_everything",
-    "choose_device",
+    "choose_device", "one_thread", "single_threaded",
     "CorruptArtifactWarning", "artifact_key", "artifact_path", "cache_dir", "clear_cache",
     "load_or_build", "state_dict_to_cpu",
     "TrainerConfig", "TrainResult", "learning_rate_factor", "move_to_device", "train",

@@ -1,11 +1,13 @@
 """Device choice: the GPU when there is one, the CPU otherwise, and clear errors in between."""
 from __future__ import annotations
 
+import contextlib
+import functools
 import re
 
 import torch
 
-__all__ = ["choose_device"]
+__all__ = ["choose_device", "one_thread", "single_threaded"]
 
 _PATTERN = re.compile(r"^(auto|cpu|mps|cuda(:\d+)?)$")
 
@@ -52,3 +54,30 @@ def choose_device(device="auto") -> torch.device:
             "use device='auto' or device='cpu'"
         )
     return torch.device(device)
+
+
+@contextlib.contextmanager
+def one_thread():
+    """Run torch on one CPU thread inside the block, restoring the pool size after.
+
+    Workloads made of many small ops (forward kinematics over a few hundred frames, small MLPs,
+    autoregressive rollouts) gain nothing from a second thread, and on a busy two-core machine a
+    two-thread pool makes them several times slower; one thread never does.
+    """
+    threads = torch.get_num_threads()
+    if threads > 1:
+        torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        if threads > 1:
+            torch.set_num_threads(threads)
+
+
+def single_threaded(function):
+    """Decorator: run ``function`` inside :func:`one_thread`."""
+    @functools.wraps(function)
+    def wrapper(*args, **kwargs):
+        with one_thread():
+            return function(*args, **kwargs)
+    return wrapper

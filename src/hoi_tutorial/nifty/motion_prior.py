@@ -32,7 +32,7 @@ import torch
 from torch import nn
 
 from .._validate import check_shape
-from ..infra import TrainerConfig, TrainResult, train
+from ..infra import TrainerConfig, TrainResult, single_threaded, train
 from ..nn.cvae import MLP, gaussian_kl, reparameterize
 from ..world.kinematics import forward_kinematics
 from ..world.motion import FPS, Motion
@@ -335,6 +335,7 @@ def _fit_normalisation(model: ReversePrior, data) -> None:
     model.y_std.copy_(y.std(0).clamp_min(1e-3))
 
 
+@single_threaded
 def train_reverse_prior(motions: Sequence[Motion], config: Optional[PriorConfig] = None,
                         device: str = "cpu", progress: bool = True):
     """Train the reverse prior on reversed clips with scheduled sampling.
@@ -408,6 +409,7 @@ def train_reverse_prior(motions: Sequence[Motion], config: Optional[PriorConfig]
 
 
 @torch.no_grad()
+@single_threaded
 def rollout(model: ReversePrior, start_prev: PoseTrack, start: PoseTrack, offsets: torch.Tensor,
             n_frames: int, generator: torch.Generator, temperature: float = 1.0) -> PoseTrack:
     """Autoregressive rollout of ``n_frames`` new frames from ``start`` (batched).

@@ -31,7 +31,8 @@ from typing import Optional, Sequence
 import numpy as np
 import torch
 
-from ..world.body import NUM_VERTICES, body_vertices
+from ..infra import single_threaded
+from ..world.body import body_vertices
 from ..world.kinematics import forward_kinematics
 from ..world.motion import FPS, Motion, action_id
 from ..world.rotations import matrix_to_axis_angle
@@ -256,6 +257,7 @@ def anchor_penetration(anchor: Anchor) -> float:
 
 
 @torch.no_grad()
+@single_threaded
 def grow_trees(prior: ReversePrior, anchors: Sequence[Anchor], generator: torch.Generator,
                config: Optional[TreeConfig] = None, prune: Optional[PruneConfig] = None) -> list[MotionTree]:
     """Algorithm 1 for every anchor (one tree each), all trees grown together level by level."""

@@ -23,6 +23,7 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 import torch
 
+from ...infra.device import single_threaded
 from ..motion import Motion
 from ..skeleton import NUM_BETAS
 from . import gait
@@ -255,6 +256,7 @@ def _subject_betas(seed: int, subjects) -> Optional[list[torch.Tensor]]:
     return betas
 
 
+@single_threaded
 def generate_dataset(n_per_kind: int, *, seed: int, kinds: Optional[Sequence[str]] = None,
                      subjects=None) -> list[Motion]:
     """A reproducible toy-mocap data set: ``n_per_kind`` clips of each kind.

@@ -34,6 +34,7 @@ import numpy as np
 import torch
 from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 
+from ...infra.device import single_threaded
 from ..._validate import as_tensor, check_choice, check_finite, check_shape
 from ..kinematics import forward_kinematics, solve_limb_ik
 from ..motion import CONTACT_JOINTS, FPS, Motion, action_id
@@ -987,6 +988,7 @@ def _last_pose(motion: Motion):
 
 # --------------------------------------------------------------------------- public API
 
+@single_threaded
 def walk_path(waypoints, *, betas=None, seed=0, speed: Optional[float] = None, gait: str = "walk",
               end_heading: Optional[float] = None, start=None, settle: bool = True) -> Motion:
     """Walk (or run) along a smooth path through ground waypoints and stop standing.
@@ -1069,6 +1071,7 @@ def walk_path(waypoints, *, betas=None, seed=0, speed: Optional[float] = None, g
     return _join(parts, meta)
 
 
+@single_threaded
 def idle(duration: float, *, betas=None, seed=0, position=(0.0, 0.0), heading: float = 0.0, start=None) -> Motion:
     """Stand with subtle life: pelvis sway, breathing spine, arm drift, a wandering gaze.
 
@@ -1092,6 +1095,7 @@ def idle(duration: float, *, betas=None, seed=0, position=(0.0, 0.0), heading: f
     return _idle_segment(body, start, rng, float(duration), False, {"generator": "idle"})
 
 
+@single_threaded
 def turn_in_place(angle: float, *, betas=None, seed=0, position=(0.0, 0.0), heading: float = 0.0,
                   start=None) -> Motion:
     """Turn on the spot by ``angle`` radians (positive: counter-clockwise seen from above, to the left).
@@ -1116,6 +1120,7 @@ def turn_in_place(angle: float, *, betas=None, seed=0, position=(0.0, 0.0), head
     return _turn_segment(body, start, rng, float(angle), 0.5, {"generator": "turn_in_place"})
 
 
+@single_threaded
 def side_step(distance: float, *, betas=None, seed=0, position=(0.0, 0.0), heading: float = 0.0,
               start=None) -> Motion:
     """Step sideways ``distance`` metres (positive: to the character's right, +X local).

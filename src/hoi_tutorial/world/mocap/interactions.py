@@ -31,14 +31,13 @@ goals, the hand used and the start of the approach.
 """
 from __future__ import annotations
 
-import contextlib
-import functools
 import math
 from typing import Optional
 
 import numpy as np
 import torch
 
+from ...infra.device import single_threaded
 from ..._validate import as_tensor, check_choice, check_finite, check_shape
 from ..kinematics import forward_kinematics, solve_limb_ik
 from ..motion import CONTACT_JOINTS, FPS, Motion, action_id
@@ -99,32 +98,6 @@ def _rng(seed) -> np.random.Generator:
     if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
         raise TypeError(f"seed: expected an int or numpy.random.Generator, got {type(seed).__name__}")
     return np.random.default_rng(int(seed))
-
-
-@contextlib.contextmanager
-def _one_thread():
-    """Run torch on one thread, restoring the pool size after.
-
-    The clips are built from many small batched ops (FK, IK on a few hundred frames); on a busy
-    two-core machine a two-thread pool makes them several times slower, one thread never does.
-    """
-    threads = torch.get_num_threads()
-    if threads > 1:
-        torch.set_num_threads(1)
-    try:
-        yield
-    finally:
-        if threads > 1:
-            torch.set_num_threads(threads)
-
-
-def _single_threaded(function):
-    @functools.wraps(function)
-    def wrapper(*args, **kwargs):
-        with _one_thread():
-            return function(*args, **kwargs)
-
-    return wrapper
 
 
 def _seed_record(seed):
@@ -1268,7 +1241,7 @@ def _approach_seat(body: _Body, obj, goal, direction, rng, start_position, appro
     return walk, (local0, root0), backing, (root0, ankles, feet, heading0)
 
 
-@_single_threaded
+@single_threaded
 def sit(obj, *, betas=None, seed=0, style: Optional[str] = None, goal_index: Optional[int] = None,
         approach: bool = True, stand_up: bool = True, start_position=None) -> Motion:
     """Walk to a seat, sit down in a style, stay seated, optionally stand up and walk away.
@@ -1443,7 +1416,7 @@ def _lie_down_plan(u, seat, seat_heading, posture, goal, head_dir, ankles_floor,
     return plan
 
 
-@_single_threaded
+@single_threaded
 def lie(obj, *, betas=None, seed=0, style: Optional[str] = None, goal_index: Optional[int] = None,
         approach: bool = True, stand_up: bool = False, start_position=None) -> Motion:
     """Walk to a sofa, sit down, lie down on the back along the cushion, and rest.
@@ -1578,7 +1551,7 @@ def _carry_point(body: _Body, obj, stand_root, heading, contacts, near, rng):
     return points[k]
 
 
-@_single_threaded
+@single_threaded
 def lift(obj, *, betas=None, seed=0, style: Optional[str] = None, approach: bool = True,
          start_position=None) -> Motion:
     """Walk to an object, bend, take it with both hands and lift it to waist or chest height.
@@ -1722,7 +1695,7 @@ def _place_on_support(obj, rng, grasp_index):
     return obj.with_pose(pose), support, towards
 
 
-@_single_threaded
+@single_threaded
 def reach_grasp(obj, *, hand: Optional[str] = None, betas=None, seed=0, pick_up: Optional[bool] = None,
                 grasp_index: Optional[int] = None, approach: bool = True, start_position=None) -> Motion:
     """Walk to a small object on a table or shelf, reach with one hand, grasp it, optionally pick it up.
@@ -1999,7 +1972,7 @@ def _handle_clip(kind: str, obj, *, betas, seed, hand, amount, approach, start_p
     return motion
 
 
-@_single_threaded
+@single_threaded
 def open_door(cabinet, *, hand: Optional[str] = None, betas=None, seed=0, angle: Optional[float] = None,
               approach: bool = True, start_position=None) -> Motion:
     """Walk to a cabinet, take the door handle and swing the door open, stepping back as it comes.
@@ -2030,7 +2003,7 @@ def open_door(cabinet, *, hand: Optional[str] = None, betas=None, seed=0, angle:
                         start_position=start_position)
 
 
-@_single_threaded
+@single_threaded
 def open_drawer(drawer, *, hand: Optional[str] = None, betas=None, seed=0, distance: Optional[float] = None,
                 approach: bool = True, start_position=None) -> Motion:
     """Walk to a chest of drawers, take the top drawer's handle and pull it out, stepping back.
