@@ -88,7 +88,7 @@ def synthetic_data_config(action: str, scale: str = "toy", seed: int = 0) -> Syn
         n_subjects=by_scale(scale, toy=4, small=7, paper=7),
         anchors_per_subject=by_scale(scale, toy=2, small=8, paper=anchors_paper),
         prior=PriorConfig(
-            steps=by_scale(scale, toy=1000, small=10000, paper=100000),
+            steps=by_scale(scale, toy=800, small=10000, paper=100000),
             width=by_scale(scale, toy=256, small=512, paper=1024),
             latent=by_scale(scale, toy=24, small=48, paper=48),
             seed=seed,

@@ -172,13 +172,17 @@ def prune_check(segment: PoseTrack, betas: torch.Tensor, objects: Sequence, anch
     rots = segment.local_rotations[:, frames]
     offsets = bone_offsets(betas)[:, None].expand(N, len(frames), -1, -1)
     glob, joints = forward_kinematics(rots, segment.root_position[:, frames], offsets)
-    verts = body_vertices(glob, joints, betas[:, None].expand(N, len(frames), -1))[:, :, ::config.vertex_stride]
+    # Betas broadcast over frames: the per-body vertex layout is computed once per clip.
+    verts = body_vertices(glob, joints, betas[:, None])[:, :, ::config.vertex_stride]
 
     # Object collision: deepest vertex inside the object, compared with the anchor's own depth.
     depth = torch.zeros(N)
+    groups: dict = {}
     for i, obj in enumerate(objects):
-        sdf = obj.sdf(verts[i].reshape(-1, 3).double())
-        depth[i] = float((-sdf).clamp_min(0.0).max())
+        groups.setdefault(id(obj), (obj, []))[1].append(i)
+    for obj, rows in groups.values():  # one SDF query per distinct object
+        sdf = obj.sdf(verts[rows].reshape(-1, 3).double()).reshape(len(rows), -1)
+        depth[rows] = (-sdf).clamp_min(0.0).amax(dim=-1).float()
     collision = depth > anchor_depth + config.penetration
 
     # Ground: the lowest vertex of every frame.
