@@ -9,7 +9,7 @@ Objects and anchors are cheap and deterministic, so they are regenerated rather 
 the cache keeps the trained prior and the rollout paths.
 
 Scaling (paper -> toy): 174 sitting / 72 lifting anchors from 7 subjects -> 4 subjects x 2 anchors;
-tree depth 7 -> 4; 200K / 110K sequences -> a few hundred; HuMoR trained on AMASS for days ->
+tree depth 7 -> 4 and, with it, the start-distance filter 1 m -> 0.75 m; 200K / 110K sequences -> a few hundred; HuMoR trained on AMASS for days ->
 the prior trained on a few dozen toy clips for under a minute.
 """
 from __future__ import annotations
@@ -93,7 +93,9 @@ def synthetic_data_config(action: str, scale: str = "toy", seed: int = 0) -> Syn
             latent=by_scale(scale, toy=24, small=48, paper=48),
             seed=seed,
         ),
-        tree=TreeConfig(max_depth=by_scale(scale, toy=4, small=5, paper=7)),
+        # Trees of 4 s instead of 7 s reach less far from the seat: the start-distance filter scales with them.
+        tree=TreeConfig(max_depth=by_scale(scale, toy=4, small=5, paper=7),
+                        min_start_distance=by_scale(scale, toy=0.75, small=1.0, paper=1.0)),
         prune=PruneConfig(),
         seed=seed,
     )

@@ -523,6 +523,7 @@ def _repeat_rows(value: torch.Tensor, times: int) -> torch.Tensor:
     return value.repeat_interleave(times, dim=0) if times > 1 else value
 
 
+@single_threaded
 def sample_motions(model: NiftyMotionModel, cond: dict, config: Optional[MotionModelConfig] = None, *,
                    generator: torch.Generator, guidance: Optional[Callable[[torch.Tensor], torch.Tensor]] = None,
                    alpha=0.0, n_samples: int = 1, guidance_scale: Optional[float] = None,
@@ -549,7 +550,8 @@ def sample_motions(model: NiftyMotionModel, cond: dict, config: Optional[MotionM
     Returns:
         ``(B·n_samples, T, 336)`` states (un-normalised, each in its scene's canonical frame, on the
         CPU), condition-major: row ``i·n_samples + j`` is sample ``j`` of condition ``i``; with
-        ``return_trajectory``, ``(states, record)``.
+        ``return_trajectory``, ``(states, record)``. Runs on one CPU thread (faster for these
+        small batches on a two-core machine).
     """
     if not isinstance(model, NiftyMotionModel):
         raise TypeError(f"model: expected a NiftyMotionModel, got {type(model).__name__}")

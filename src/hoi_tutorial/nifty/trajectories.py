@@ -4,7 +4,8 @@ This is the guidance chapter's stepping stone to NIFTY: the "motion" is the pelv
 of a 2-second toy walk, ``τ ∈ R^{T×3}`` (T = 60 frames at 30 fps, metres), in NIFTY's canonical
 frame (the first pose at the origin facing +Y, heights kept). An unconditional
 :class:`~hoi_tutorial.nn.denoisers.MLPDenoiser` over the trajectory's smooth-basis code
-(:class:`TrajectoryCodec`: 16 DCT coefficients per coordinate, standardised) is trained with the x0 loss of :func:`~hoi_tutorial.nn.diffusion.training_loss`; at test time
+(:class:`TrajectoryCodec`: 16 DCT coefficients per coordinate, standardised) is trained with
+the x0 loss of :func:`~hoi_tutorial.nn.diffusion.training_loss`; at test time
 :func:`end_position_objective` is the guidance objective G of NIFTY Eq. 4 on the last frame,
 ``G(τ) = ‖τ_T^{xy} − g‖²`` — the analytic stand-in for NIFTY's learned interaction field, which
 is also evaluated on the last frame of the motion.

@@ -3,12 +3,14 @@
 :class:`MLPDenoiser` has the interface that :func:`hoi_tutorial.nn.diffusion.classifier_free_x0`
 and :func:`hoi_tutorial.nn.diffusion.training_loss` expect, ``model(x_k, k, cond, drop_cond)``::
 
-    h = W_in x_k + E_step(k) + E_cond(C)          (E_cond(∅) is a learned null embedding)
-    h = h + Block_i(h)      for each of ``depth`` residual blocks (LayerNorm → MLP)
-    x̂0 = W_out SiLU(LayerNorm(h))
+    e = E_step(k) + E_cond(C)                     (E_cond(∅) is a learned null embedding)
+    h = W_in φ(x_k) + e                           (φ: identity, or random Fourier features)
+    h = h + MLP(LayerNorm(h) + e)                 for each of ``depth`` residual blocks
+    F = W_out h                                   (a linear read-out of the residual stream)
 
-Optionally (``schedule=...``) the network ``F`` is wrapped in the preconditioning of Karras et
-al. (2022), written for the variance-preserving process of NIFTY Eq. 2::
+Without a schedule the prediction is ``x̂0 = F`` (as MDM's). Optionally (``schedule=...``) ``F``
+is wrapped in the preconditioning of Karras et al. (2022), written for the variance-preserving
+process of NIFTY Eq. 2::
 
     x̂0 = c_skip(k) x_k + c_out(k) F(c_in(k) x_k, k, C),   D_k = 1 - ᾱ_k + ᾱ_k σ_d²,
     c_in = 1/√D_k,   c_skip = σ_d² √ᾱ_k / D_k,   c_out = σ_d √(1-ᾱ_k) / √D_k
@@ -68,6 +70,10 @@ class MLPDenoiser(nn.Module):
         schedule: the :class:`~hoi_tutorial.nn.diffusion.NoiseSchedule` the model will be used
             with, to precondition as above; ``None`` for a bare network (``x̂0 = F``, as MDM).
         data_std: σ_d, the standard deviation of the data (used only with ``schedule``).
+        fourier_features: when > 0, the (scaled) input is first mapped to that many random
+            Fourier features (plus the input itself); helps an MLP on low-dimensional inputs such
+            as 2-D points learn sharp functions.
+        fourier_scale: standard deviation of the Fourier frequencies (cycles per input unit).
     """
 
     def __init__(self, x_dim: int, cond_dim: int = 0, n_classes: Optional[int] = None, width: int = 128,
@@ -85,6 +91,8 @@ class MLPDenoiser(nn.Module):
             raise ValueError("cond_dim and n_classes: expected at most one kind of condition, got both")
         if not (isinstance(data_std, (int, float)) and data_std > 0):
             raise ValueError(f"data_std: expected a positive number, got {data_std!r}")
+        if isinstance(fourier_features, bool) or not isinstance(fourier_features, int) or fourier_features < 0:
+            raise ValueError(f"fourier_features: expected an int >= 0, got {fourier_features!r}")
         if schedule is not None and not isinstance(schedule, NoiseSchedule):
             raise TypeError(f"schedule: expected a NoiseSchedule or None, got {type(schedule).__name__}")
         self.x_dim, self.cond_dim, self.n_classes = x_dim, cond_dim, n_classes
@@ -96,7 +104,7 @@ class MLPDenoiser(nn.Module):
         self.fourier = None
         in_dim = x_dim
         if fourier_features:
-            self.fourier = FourierFeatures(x_dim, int(fourier_features), scale=float(fourier_scale),
+            self.fourier = FourierFeatures(x_dim, fourier_features, scale=float(fourier_scale),
                                            include_input=True)
             in_dim = self.fourier.out_dim
         self.input_projection = nn.Linear(in_dim, width)
