@@ -28,6 +28,7 @@ import torch
 from .._validate import as_tensor, check_shape
 from ..infra.presets import by_scale
 from ..infra.seeding import rng as make_rng
+from ..infra.device import single_threaded
 from ..infra.training import TrainerConfig, train
 from ..nn.denoisers import MLPDenoiser
 from ..nn.diffusion import NoiseSchedule, cosine_schedule, sample, training_loss
@@ -129,6 +130,7 @@ def canonical_pelvis_trajectory(motion, frames: int) -> torch.Tensor:
     return pelvis
 
 
+@single_threaded  # many small ops (gait synthesis, forward kinematics): one CPU thread is fastest
 def make_walk_trajectories(config: WalkDataConfig) -> torch.Tensor:
     """Generate the walking data set (see the module docstring).
 
@@ -271,6 +273,7 @@ def build_trajectory_denoiser(config: TrajectoryModelConfig) -> MLPDenoiser:
                            data_std=1.0)
 
 
+@single_threaded  # a small MLP: one CPU thread is fastest
 def train_trajectory_denoiser(config: TrajectoryModelConfig, trajectories: torch.Tensor, device="cpu",
                               progress: bool = False) -> dict:
     """Fit the codec and train the unconditional trajectory denoiser with the x0 loss (NIFTY §3.1).
@@ -311,6 +314,7 @@ def train_trajectory_denoiser(config: TrajectoryModelConfig, trajectories: torch
     return {"state": state, "codec": codec.state(), "losses": [float(v) for v in result.losses]}
 
 
+@single_threaded
 def sample_walks(model: torch.nn.Module, codec: TrajectoryCodec, schedule: NoiseSchedule, n: int, *,
                  generator: torch.Generator, objective: Optional[Callable[[torch.Tensor], torch.Tensor]] = None,
                  alpha: float = 0.0, return_trajectory: bool = False, device=None):

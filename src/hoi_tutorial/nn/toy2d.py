@@ -25,6 +25,7 @@ import torch
 from .._validate import as_tensor, check_choice, check_shape
 from ..infra.presets import by_scale
 from ..infra.seeding import rng as make_rng
+from ..infra.device import single_threaded
 from ..infra.training import TrainerConfig, train
 from .denoisers import MLPDenoiser
 from .diffusion import NoiseSchedule, cosine_schedule, linear_schedule, training_loss
@@ -343,6 +344,7 @@ def build_toy2d_denoiser(config: Toy2DConfig) -> MLPDenoiser:
                            fourier_features=config.fourier_features, fourier_scale=config.fourier_scale)
 
 
+@single_threaded  # a small MLP: one CPU thread is fastest
 def train_toy2d_denoiser(config: Toy2DConfig, device="cpu", progress: bool = False):
     """Train the 2-D denoiser with the x0 loss and label dropout (NIFTY §3.1).
 
