@@ -6,9 +6,13 @@
 - :mod:`.pointnet`: a PointNet encoder for point clouds;
 - :mod:`.transformer`: an MDM/NIFTY-style transformer denoiser;
 - :mod:`.cvae`: Gaussian KL, reparameterisation, MLP;
-- :mod:`.moe`: mixture-of-experts layers with blended weights (SAMP Eq. 2).
+- :mod:`.moe`: mixture-of-experts layers with blended weights (SAMP Eq. 2);
+- :mod:`.denoisers`: an x0-predicting MLP denoiser for vectors (2-D points, short trajectories);
+- :mod:`.toy2d`: 2-D teaching distributions and objectives for the diffusion chapter.
 """
+from . import toy2d
 from .cvae import ACTIVATIONS, MLP, gaussian_kl, reparameterize
+from .denoisers import MLPDenoiser
 from .diffusion import (
     NoiseSchedule,
     best_of_n,
@@ -32,7 +36,7 @@ __all__ = [
     "classifier_free_x0", "guided_x0", "sample", "best_of_n", "training_loss",
     "SinusoidalEmbedding", "TimestepEmbedding", "FourierFeatures", "PositionalEncoding", "sinusoid_table",
     "PointNetEncoder",
-    "TransformerDenoiser",
+    "TransformerDenoiser", "MLPDenoiser", "toy2d",
     "gaussian_kl", "reparameterize", "MLP", "ACTIVATIONS",
     "MixtureOfExpertsLinear", "GatingNetwork", "MoEMLP",
 ]

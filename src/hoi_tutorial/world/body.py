@@ -113,13 +113,6 @@ _HEEL_BEHIND_ANKLE = 0.025
 _TOE_AHEAD_OF_FOOT_JOINT = 0.035
 
 
-def _float_tensor(x, name: str) -> torch.Tensor:
-    """A floating tensor keeps its dtype and device; anything else becomes float32."""
-    if isinstance(x, torch.Tensor) and x.is_floating_point():
-        return x
-    return as_tensor(x, name)
-
-
 def _as_betas(betas, like: Optional[torch.Tensor] = None) -> torch.Tensor:
     dtype = like.dtype if like is not None and like.is_floating_point() else torch.float32
     if betas is None:
@@ -232,8 +225,8 @@ def _check_pose(global_rotations, joint_positions):
 
 
 def _pose_tensors(global_rotations, joint_positions):
-    rot = _float_tensor(global_rotations, "global_rotations")
-    pos = _float_tensor(joint_positions, "joint_positions")
+    rot = as_tensor(global_rotations, "global_rotations")
+    pos = as_tensor(joint_positions, "joint_positions")
     _check_pose(rot, pos)
     dtype = torch.promote_types(rot.dtype, pos.dtype)
     return rot.to(dtype), pos.to(dtype)
@@ -402,7 +395,7 @@ def body_sdf(points, global_rotations, joint_positions, betas=None) -> torch.Ten
     Returns:
         ``(..., P)`` signed distance in metres.
     """
-    points = _float_tensor(points, "points")
+    points = as_tensor(points, "points")
     check_shape(points, (..., None, 3), "points")
     a, b, radius = capsule_segments(global_rotations, joint_positions, betas)
     dtype = torch.promote_types(points.dtype, a.dtype)

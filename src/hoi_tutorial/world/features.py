@@ -82,13 +82,6 @@ __all__ = [
 _LEFT_HIP, _RIGHT_HIP, _PELVIS = joint_index("left_hip"), joint_index("right_hip"), joint_index("pelvis")
 
 
-def _float_tensor(x, name: str) -> torch.Tensor:
-    """A floating tensor keeps its dtype and device; anything else becomes float32."""
-    if isinstance(x, torch.Tensor) and x.is_floating_point():
-        return x
-    return as_tensor(x, name)
-
-
 # ----------------------------------------------------------------------------- root frame
 
 
@@ -101,7 +94,7 @@ def body_heading(joints) -> torch.Tensor:
         ``(...)`` radians about +Z; 0 faces +Y, ``π/2`` faces −X (as ``rotation_about_z``).
         Ill-defined only when the hip line is vertical (lying on one side).
     """
-    joints = _float_tensor(joints, "joints")
+    joints = as_tensor(joints, "joints")
     check_shape(joints, (..., NUM_JOINTS, 3), "joints")
     across = joints[..., _RIGHT_HIP, :] - joints[..., _LEFT_HIP, :]
     # forward = up × across = (−across_y, across_x, 0); heading = atan2(−forward_x, forward_y).
@@ -117,7 +110,7 @@ def root_frame(joints):
         ``(origin (..., 3) metres with z = 0, heading (...) radians)``.
     """
     heading = body_heading(joints)
-    joints = _float_tensor(joints, "joints")
+    joints = as_tensor(joints, "joints")
     origin = joints[..., _PELVIS, :] * torch.tensor([1.0, 1.0, 0.0], dtype=joints.dtype, device=joints.device)
     return origin, heading
 
@@ -126,7 +119,7 @@ def _joints_of(motion_or_pose):
     if isinstance(motion_or_pose, Motion):
         return motion_or_pose.joints
     if isinstance(motion_or_pose, (tuple, list)) and len(motion_or_pose) == 2:
-        joints = _float_tensor(motion_or_pose[1], "joints")
+        joints = as_tensor(motion_or_pose[1], "joints")
         check_shape(joints, (..., NUM_JOINTS, 3), "joints")
         return joints if joints.dim() > 2 else joints[None]
     raise TypeError("motion_or_pose: expected a Motion or a (global_rotations, joints) pair")
@@ -210,7 +203,7 @@ def angular_velocity(global_rotations, fps: float = FPS) -> torch.Tensor:
     Returns:
         ``(T, ..., 3)`` rad/s.
     """
-    rot = _float_tensor(global_rotations, "global_rotations")
+    rot = as_tensor(global_rotations, "global_rotations")
     check_shape(rot, (..., 3, 3), "global_rotations")
     if rot.dim() < 3:
         raise ValueError(f"global_rotations: expected shape (T, ..., 3, 3), got {tuple(rot.shape)}")
@@ -255,7 +248,7 @@ def split_nifty_state(x) -> dict[str, torch.Tensor]:
         ``joint_velocities (..., 22, 3)``, ``joint_angular_velocities (..., 22, 3)``,
         ``root_position (..., 3)``, ``root_velocity (..., 3)`` (views of ``x``).
     """
-    x = _float_tensor(x, "x")
+    x = as_tensor(x, "x")
     check_shape(x, (..., NIFTY_STATE_SIZE), "x")
     return {name: x[..., NIFTY_STATE_LAYOUT[name]].reshape(x.shape[:-1] + shape) for name, shape in _NIFTY_PARTS}
 
@@ -276,7 +269,7 @@ def nifty_state_to_pose(x, fps: float = FPS, integrate_root: bool = True):
     Returns:
         ``(local_rotations (..., T, 22, 3, 3), root_position (..., T, 3) metres)``.
     """
-    x = _float_tensor(x, "x")
+    x = as_tensor(x, "x")
     check_shape(x, (..., None, NIFTY_STATE_SIZE), "x")
     parts = split_nifty_state(x)
     glob = rotation_6d_to_matrix(parts["joint_rotations"])
@@ -300,7 +293,7 @@ def motion_from_nifty_state(x, betas=None, integrate_root: bool = True, fps: flo
     Returns:
         a ``Motion`` without labels.
     """
-    x = _float_tensor(x, "x")
+    x = as_tensor(x, "x")
     check_shape(x, (None, NIFTY_STATE_SIZE), "x")
     local, root = nifty_state_to_pose(x, fps, integrate_root)
     kwargs = {} if betas is None else {"betas": as_tensor(betas, "betas")}
