@@ -5,5 +5,7 @@ Modules, in the order of the paper:
 - ``trajectories``: a small diffusion model over toy walking trajectories (the guidance chapter).
 - ``motion_prior``: the time-reversed HuMoR-style motion prior (§3.3, Appendix A.2).
 - ``anchors``: anchor poses for sitting and lifting across toy subjects and objects (§3.3).
-- ``rollout``: Algorithm 1, tree-based rollouts with PruneCheck, and the synthetic datasets (§3.3).
+- ``rollout``: Algorithm 1, tree-based rollouts with PruneCheck (§3.3, Appendix A.2).
+- ``data``: the synthetic-data pipeline end to end, cached: mocap, prior, anchors, trees, datasets (§3.3).
+- ``motion_model``: the object-conditioned motion diffusion model, its training and sampling (§3.1, Appendix B).
 """

@@ -25,9 +25,10 @@ as Appendix B does, and the loss covers the padding too; longer ones keep their 
 feature with statistics over the valid frames, stored in the model.
 
 Scaling (paper -> toy): 150 -> 121 frames (a depth-4 tree of 1-second nodes plus the anchor);
-width 512 -> 64; 8 -> 2 layers (4 heads at every scale); K = 1000 -> 100 diffusion steps;
-5000 -> 256 object points; 600K iterations at lr 1e-4 and batch 32 -> 2000 iterations at lr
-1e-3 (cosine decay) and batch 32, under a minute on two CPU cores. ``small`` sits in between.
+width 512 -> 64; 8 -> 2 layers (4 heads at every scale); dropout 0.1 -> 0 (on a CPU it costs
+almost half of each step); K = 1000 -> 100 diffusion steps; 5000 -> 256 object points;
+600K iterations of batch 32 at lr 1e-4 -> 1000 iterations of batch 16 at lr 2e-3 (cosine
+decay), under a minute on one CPU thread. ``small`` sits in between.
 """
 from __future__ import annotations
 
@@ -58,6 +59,10 @@ from ..world.features import (NIFTY_STATE_SIZE, canonical_transform, motion_from
 from ..world.motion import Motion
 from ..world.rotations import rotation_about_z
 from ..world.skeleton import NUM_BETAS, NUM_JOINTS, joint_index
+from . import anchors as anchors_module
+from . import data as data_module
+from . import motion_prior as prior_module
+from . import rollout as rollout_module
 
 __all__ = [
     "CONDITION_KEYS",
@@ -117,15 +122,15 @@ class MotionModelConfig:
     width: int = 64
     layers: int = 2
     heads: int = 4
-    dropout: float = 0.1
+    dropout: float = 0.0
     n_points: int = 256
     pointnet_hidden: tuple = (64, 128)
     diffusion_steps: int = 100
     p_uncond: float = 0.1
     guidance_scale: float = 2.5
-    steps: int = 2000
-    batch_size: int = 32
-    lr: float = 1e-3
+    steps: int = 1000
+    batch_size: int = 16
+    lr: float = 2e-3
     lr_schedule: str = "cosine"
     warmup_steps: int = 100
     grad_clip: Optional[float] = 1.0
@@ -160,10 +165,10 @@ def motion_model_config(action: str = "sit", scale: str = "toy", **overrides) ->
     base = by_scale(
         scale,
         toy=MotionModelConfig(action=action),
-        small=MotionModelConfig(action=action, max_frames=151, width=256, layers=4, n_points=1024,
+        small=MotionModelConfig(action=action, max_frames=151, width=256, layers=4, dropout=0.1, n_points=1024,
                                 pointnet_hidden=(64, 128, 256), diffusion_steps=1000, steps=30000,
-                                batch_size=64, lr=2e-4, warmup_steps=500),
-        paper=MotionModelConfig(action=action, max_frames=150, width=512, layers=8, n_points=5000,
+                                batch_size=32, lr=2e-4, warmup_steps=500),
+        paper=MotionModelConfig(action=action, max_frames=150, width=512, layers=8, dropout=0.1, n_points=5000,
                                 pointnet_hidden=(64, 128, 1024), diffusion_steps=1000, steps=600_000,
                                 batch_size=32, lr=1e-4, lr_schedule="constant", warmup_steps=0,
                                 grad_clip=None),
@@ -201,7 +206,7 @@ def _inverse_rigid(matrix: np.ndarray) -> np.ndarray:
     return out
 
 
-def interaction_condition(motion: Motion, obj, n_points: int, seed=0) -> dict:
+def interaction_condition(motion: Motion, obj, n_points: int, seed=0, points=None) -> dict:
     """The condition ``C = {P_o, R_o, b, X_0}`` of NIFTY §3.1 for a person starting as ``motion`` does.
 
     Only the first frame matters (velocities in ``X_0`` come from the frames after it, zero for a
@@ -212,7 +217,9 @@ def interaction_condition(motion: Motion, obj, n_points: int, seed=0) -> dict:
         obj: a placed object with ``pose`` ``(4, 4)`` world_from_object and
             ``point_cloud(n, seed)`` (canonical frame), e.g. ``world.objects.ToyObject``.
         n_points: size of ``P_o`` (NIFTY: 5000).
-        seed: seed of the point sampling.
+        seed: seed of the point sampling (int or ``numpy.random.Generator``).
+        points: ``(n_points, 3)`` metres, an object-frame cloud of ``obj`` already sampled (then
+            ``seed`` is unused).
     Returns:
         dict of float32 tensors: ``points (n_points, 3)`` metres, object frame;
         ``object_pose (12,)`` the top 3×4 of ``person_canonical_from_object`` (rotation entries,
@@ -223,8 +230,10 @@ def interaction_condition(motion: Motion, obj, n_points: int, seed=0) -> dict:
         raise TypeError(f"motion: expected a Motion, got {type(motion).__name__}")
     canonical_from_world = canonical_from_world_matrix(motion, 0)
     relative = canonical_from_world @ np.asarray(obj.pose, dtype=np.float64)
-    points = np.asarray(obj.point_cloud(int(n_points), seed=seed), dtype=np.float64)
-    check_shape(points, (int(n_points), 3), "obj.point_cloud(n_points)")
+    if points is None:
+        points = obj.point_cloud(int(n_points), seed=seed)
+    points = np.asarray(points, dtype=np.float64)
+    check_shape(points, (int(n_points), 3), "points")
     start = nifty_pose_state(motion.slice(0, min(len(motion), 2)))[0]
     return {
         "points": torch.as_tensor(points, dtype=torch.float32),
@@ -261,13 +270,15 @@ class InteractionTensors:
     world_from_canonical: torch.Tensor
 
     @classmethod
+    @single_threaded
     def from_sequences(cls, sequences: Sequence, max_frames: int, n_points: int, seed: int = 0) -> "InteractionTensors":
         """Tensorise interaction sequences.
 
         Each sequence longer than ``max_frames`` keeps its last ``max_frames`` frames (it must end
         in its anchor); then the motion is canonicalised to its (new) first frame, turned into
-        Eq. 1 states and padded with its last frame. Sequence ``i`` samples its object points with
-        seed ``(seed, i)``.
+        Eq. 1 states and padded with its last frame. Each distinct object (by identity; the
+        sequences of one anchor share theirs) gets one point cloud, the ``j``-th one drawn with
+        the seed ``(seed, j)``.
 
         Args:
             sequences: records with ``motion`` (a world-frame ``Motion``) and ``obj`` (a placed
@@ -284,14 +295,16 @@ class InteractionTensors:
             raise ValueError(f"max_frames, n_points: expected positive ints, got {max_frames}, {n_points}")
         rows = {name: [] for name in ("states", "valid", "lengths", "points", "object_pose", "betas",
                                       "start_pose", "world_from_canonical")}
+        clouds = {}  # id(obj) -> its canonical-frame cloud
         for index, record in enumerate(sequences):
             motion, obj = getattr(record, "motion", None), getattr(record, "obj", None)
             if not isinstance(motion, Motion) or obj is None:
                 raise TypeError(f"sequences[{index}]: expected a record with .motion (Motion) and .obj")
             if len(motion) > max_frames:
                 motion = motion.slice(len(motion) - max_frames, len(motion))
-            cond = interaction_condition(motion, obj, n_points,
-                                         seed=np.random.default_rng([int(seed), index]))
+            if id(obj) not in clouds:
+                clouds[id(obj)] = obj.point_cloud(n_points, seed=np.random.default_rng([int(seed), len(clouds)]))
+            cond = interaction_condition(motion, obj, n_points, points=clouds[id(obj)])
             states = nifty_pose_state(motion).to(torch.float32)
             length = states.shape[0]
             padding = states[-1:].expand(max_frames - length, -1)
@@ -492,11 +505,6 @@ def trained_motion_model(dataset, config: MotionModelConfig, device="cpu", progr
     Returns:
         ``(model, info)``: the model in eval mode and ``{"losses", "seconds", "n_sequences"}``.
     """
-    from . import anchors as anchors_module
-    from . import data as data_module
-    from . import motion_prior as prior_module
-    from . import rollout as rollout_module
-
     if config.action != dataset.config.action:
         raise ValueError(f"config.action: {config.action!r}, but the dataset is {dataset.config.action!r}")
 
