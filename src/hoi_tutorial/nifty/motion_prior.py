@@ -24,20 +24,18 @@ on toy mocap instead of days on AMASS.
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Optional, Sequence
 
-import numpy as np
 import torch
 from torch import nn
 
 from .._validate import check_shape
-from ..infra import TrainerConfig, TrainResult, single_threaded, train
-from ..nn.cvae import MLP, gaussian_kl, reparameterize
+from ..infra import TrainerConfig, single_threaded, train
+from ..nn.cvae import MLP, gaussian_kl
 from ..world.kinematics import forward_kinematics
 from ..world.motion import FPS, Motion
 from ..world.rotations import (
-    axis_angle_to_matrix,
     matrix_to_axis_angle,
     matrix_to_rotation_6d,
     rotation_6d_to_matrix,

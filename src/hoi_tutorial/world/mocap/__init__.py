@@ -27,7 +27,7 @@ from ...infra.device import single_threaded
 from ..motion import Motion
 from ..skeleton import NUM_BETAS
 from . import gait
-from .gait import GAITS, Footstep, footstep_plan, idle, path_from_waypoints, side_step, turn_in_place, walk_path
+from .gait import GAITS, Footstep, _rng, footstep_plan, idle, path_from_waypoints, side_step, turn_in_place, walk_path
 from .poses import standing_pose
 
 __all__ = [
@@ -65,14 +65,6 @@ INTERACTION_OBJECTS: dict[str, tuple[str, ...]] = {
 
 # Toy room used for random paths: a square of this side, centred on the origin, metres.
 ROOM_SIZE = 6.0
-
-
-def _rng(seed) -> np.random.Generator:
-    if isinstance(seed, np.random.Generator):
-        return seed
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
-        raise TypeError(f"seed: expected an int or numpy.random.Generator, got {type(seed).__name__}")
-    return np.random.default_rng(int(seed))
 
 
 def sample_betas(rng_or_seed, scale: float = 1.0) -> torch.Tensor:

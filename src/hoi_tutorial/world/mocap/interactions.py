@@ -44,6 +44,8 @@ from ..motion import CONTACT_JOINTS, FPS, Motion, action_id
 from ..rotations import axis_angle_to_matrix, matrix_to_axis_angle, yaw_of_matrix
 from ..skeleton import NUM_BETAS, NUM_JOINTS, bone_offsets, joint_index
 from . import gait
+from .gait import _min_jerk, _rng, _wrap
+from .gait import _smoothstep as _smooth
 from .poses import standing_pose
 
 __all__ = [
@@ -92,35 +94,12 @@ _ELBOW_POLE = np.array([[-0.35, -1.0, -0.35], [0.35, -1.0, -0.35]])
 
 # --------------------------------------------------------------------------- small helpers
 
-def _rng(seed) -> np.random.Generator:
-    if isinstance(seed, np.random.Generator):
-        return seed
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
-        raise TypeError(f"seed: expected an int or numpy.random.Generator, got {type(seed).__name__}")
-    return np.random.default_rng(int(seed))
-
-
 def _seed_record(seed):
     return int(seed) if isinstance(seed, (int, np.integer)) else None
 
 
 def _frames(seconds: float) -> int:
     return max(2, int(round(seconds * FPS)))
-
-
-def _wrap(angle):
-    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
-
-
-def _smooth(x):
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3.0 - 2.0 * x)
-
-
-def _min_jerk(x):
-    """``10x^3 - 15x^4 + 6x^5``: zero velocity and acceleration at both ends."""
-    x = np.clip(x, 0.0, 1.0)
-    return x**3 * (10.0 + x * (-15.0 + 6.0 * x))
 
 
 def _bump(x):
