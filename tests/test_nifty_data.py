@@ -204,3 +204,13 @@ def test_joint_limits_from_data_accept_the_data(walk):
     far = make_object("box", seed=0).placed(20.0, 20.0, 0.0)
     checks = ro.prune_check(seg, walk.betas[None], [far], torch.zeros(1), ro.PruneConfig(joint_limits=limits))
     assert not bool(checks["unnatural"][0])
+
+
+def test_prior_training_does_not_depend_on_the_global_rng(walk):
+    config = mp.PriorConfig(steps=3, window=4, width=32, batch_size=8)
+    torch.manual_seed(1)
+    first, _ = mp.train_reverse_prior([walk], config, progress=False)
+    torch.manual_seed(2)
+    second, _ = mp.train_reverse_prior([walk], config, progress=False)
+    for a, b in zip(first.state_dict().values(), second.state_dict().values()):
+        assert torch.equal(a, b)

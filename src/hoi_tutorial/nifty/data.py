@@ -244,16 +244,33 @@ def recheck_sequences(dataset: SyntheticDataset, sequences=None) -> torch.Tensor
     limits = joint_limits_from(prior_training_clips(config))
     prune = dataclasses.replace(config.prune, joint_limits=limits)
     F = config.tree.frames_per_node
-    ok = []
-    for seq in sequences:
+    rots, roots, joints, betas, objects, depths, owner = [], [], [], [], [], [], []
+    penetration = {}
+    for s, seq in enumerate(sequences):
         rev = seq.motion.reversed()
         depth = (len(rev) - 1) // F
         if depth * F + 1 != len(rev):
             raise ValueError(f"sequence of {len(rev)} frames is not 1 + depth x {F}")
         idx = torch.arange(1, 1 + depth * F).reshape(depth, F)
-        segment = motion_prior.PoseTrack(rev.local_rotations[idx], rev.root_position[idx], rev.joints[idx])
-        anchor_depth = torch.full((depth,), rollout.anchor_penetration(seq.anchor))
-        checks = rollout.prune_check(segment, seq.motion.betas[None].expand(depth, -1), [seq.obj] * depth,
-                                     anchor_depth, prune)
-        ok.append(bool(checks["valid"].all()))
-    return torch.tensor(ok, dtype=torch.bool)
+        key = id(seq.anchor)
+        if key not in penetration:
+            penetration[key] = rollout.anchor_penetration(seq.anchor)
+        rots.append(rev.local_rotations[idx])
+        roots.append(rev.root_position[idx])
+        joints.append(rev.joints[idx])
+        betas.append(seq.motion.betas[None].expand(depth, -1))
+        objects += [seq.obj] * depth
+        depths += [penetration[key]] * depth
+        owner += [s] * depth
+    if not owner:
+        return torch.zeros(0, dtype=torch.bool)
+    rots, roots, joints, betas = torch.cat(rots), torch.cat(roots), torch.cat(joints), torch.cat(betas)
+    depths, owner = torch.tensor(depths), torch.tensor(owner)
+    valid = torch.empty(len(owner), dtype=torch.bool)
+    for start in range(0, len(owner), 256):  # every node, in batches
+        sl = slice(start, start + 256)
+        segment = motion_prior.PoseTrack(rots[sl], roots[sl], joints[sl])
+        valid[sl] = rollout.prune_check(segment, betas[sl], objects[sl], depths[sl], prune)["valid"]
+    ok = torch.ones(len(sequences), dtype=torch.bool)
+    ok.index_put_((owner[~valid],), torch.tensor(False))
+    return ok

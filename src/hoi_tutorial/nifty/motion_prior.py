@@ -351,7 +351,10 @@ def train_reverse_prior(motions: Sequence[Motion], config: Optional[PriorConfig]
     """
     config = config or PriorConfig()
     data = training_windows(motions, config.window)
-    model = ReversePrior(config)
+    # The initial weights come from the config's seed, not from whatever the global RNG holds.
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(config.seed)
+        model = ReversePrior(config)
     _fit_normalisation(model, data)
     n = data["root_position"].shape[0]
     W = config.window
