@@ -44,7 +44,7 @@ from ..motion import CONTACT_JOINTS, FPS, Motion, action_id
 from ..rotations import axis_angle_to_matrix, matrix_to_axis_angle, yaw_of_matrix
 from ..skeleton import NUM_BETAS, NUM_JOINTS, bone_offsets, joint_index
 from . import gait
-from .gait import _min_jerk, _rng, _wrap
+from .gait import _min_jerk, _rng, _rot_x, _rot_y, _rot_z, _wrap
 from .gait import _smoothstep as _smooth
 from .poses import standing_pose
 
@@ -105,27 +105,6 @@ def _frames(seconds: float) -> int:
 def _bump(x):
     """``sin^2(pi x)`` on [0, 1]: 0 at both ends, 1 in the middle, flat ends."""
     return np.sin(np.pi * np.clip(x, 0.0, 1.0)) ** 2
-
-
-def _rot_x(angle):
-    angle = np.asarray(angle, dtype=np.float64)
-    c, s = np.cos(angle), np.sin(angle)
-    o, z = np.ones_like(angle), np.zeros_like(angle)
-    return np.stack([o, z, z, z, c, -s, z, s, c], -1).reshape(angle.shape + (3, 3))
-
-
-def _rot_y(angle):
-    angle = np.asarray(angle, dtype=np.float64)
-    c, s = np.cos(angle), np.sin(angle)
-    o, z = np.ones_like(angle), np.zeros_like(angle)
-    return np.stack([c, z, s, z, o, z, -s, z, c], -1).reshape(angle.shape + (3, 3))
-
-
-def _rot_z(angle):
-    angle = np.asarray(angle, dtype=np.float64)
-    c, s = np.cos(angle), np.sin(angle)
-    o, z = np.ones_like(angle), np.zeros_like(angle)
-    return np.stack([c, -s, z, s, c, z, z, z, o], -1).reshape(angle.shape + (3, 3))
 
 
 def _rot_axis(axis, angle):
