@@ -33,6 +33,7 @@ from torch import nn
 from .._validate import check_shape
 from ..infra import TrainerConfig, single_threaded, train
 from ..nn.cvae import MLP, gaussian_kl
+from ..world.features import feature_layout
 from ..world.kinematics import forward_kinematics
 from ..world.motion import FPS, Motion
 from ..world.rotations import (
@@ -69,12 +70,7 @@ _PARTS = (
     ("joint_positions", 3 * NUM_JOINTS),
     ("joint_velocities", 3 * NUM_JOINTS),
 )
-STATE_LAYOUT: dict[str, slice] = {}
-_start = 0
-for _name, _size in _PARTS:
-    STATE_LAYOUT[_name] = slice(_start, _start + _size)
-    _start += _size
-STATE_SIZE = _start
+STATE_LAYOUT, STATE_SIZE = feature_layout(_PARTS)
 # Decoder output: next root position (3) and orientation (6D) in the current heading frame,
 # and the residual of the 21 local joint rotations in 6D.
 STEP_SIZE = 3 + 6 + 6 * (NUM_JOINTS - 1)

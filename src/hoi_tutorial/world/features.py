@@ -57,6 +57,7 @@ from .rotations import (
 from .skeleton import NUM_JOINTS, joint_index
 
 __all__ = [
+    "feature_layout",
     "body_heading",
     "root_frame",
     "canonical_transform",
@@ -167,7 +168,22 @@ def canonicalize(motion: Motion, frame: int = 0) -> Motion:
 
 # ----------------------------------------------------------------------------- NIFTY Eq. 1
 
-NIFTY_STATE_LAYOUT: dict[str, slice] = {}
+def feature_layout(parts) -> tuple[dict[str, slice], int]:
+    """Consecutive slices for named parts of a flat feature vector.
+
+    Args:
+        parts: ``(name, size)`` pairs, where a size is an int or a shape tuple.
+    Returns:
+        ``(layout, total_size)`` with ``layout[name]`` the part's slice of the last axis.
+    """
+    layout, start = {}, 0
+    for name, size in parts:
+        size = int(np.prod(size))
+        layout[name] = slice(start, start + size)
+        start += size
+    return layout, start
+
+
 _NIFTY_PARTS = (
     ("joint_positions", (NUM_JOINTS, 3)),       # j^p
     ("joint_rotations", (NUM_JOINTS, 6)),       # j^r (6D, global)
@@ -176,12 +192,7 @@ _NIFTY_PARTS = (
     ("root_position", (3,)),                    # t^p
     ("root_velocity", (3,)),                    # t^v
 )
-_start = 0
-for _name, _shape in _NIFTY_PARTS:
-    _size = int(np.prod(_shape))
-    NIFTY_STATE_LAYOUT[_name] = slice(_start, _start + _size)
-    _start += _size
-NIFTY_STATE_SIZE = _start
+NIFTY_STATE_LAYOUT, NIFTY_STATE_SIZE = feature_layout(_NIFTY_PARTS)
 
 
 def _forward_difference(x: torch.Tensor, fps: float) -> torch.Tensor:
@@ -332,20 +343,10 @@ _SAMP_PARTS = (
     ("goal_actions", _NA * _NS),                 # g^a
     ("contacts", len(CONTACT_JOINTS)),           # c
 )
-SAMP_STATE_LAYOUT: dict[str, slice] = {}
-_start = 0
-for _name, _size in _SAMP_PARTS:
-    SAMP_STATE_LAYOUT[_name] = slice(_start, _start + _size)
-    _start += _size
-SAMP_STATE_SIZE = _start
+SAMP_STATE_LAYOUT, SAMP_STATE_SIZE = feature_layout(_SAMP_PARTS)
 _FD_PARTS = ("joint_positions", "joint_rotations", "joint_velocities",
              "goal_trajectory_positions", "goal_trajectory_directions")
-SAMP_FD_LAYOUT: dict[str, slice] = {}
-_start = 0
-for _name in _FD_PARTS:
-    _size = dict(_SAMP_PARTS)[_name]
-    SAMP_FD_LAYOUT[_name] = slice(_start, _start + _size)
-    _start += _size
+SAMP_FD_LAYOUT, _ = feature_layout([(name, dict(_SAMP_PARTS)[name]) for name in _FD_PARTS])
 
 
 def samp_action_ids(labels) -> np.ndarray:
