@@ -92,7 +92,8 @@ def test_a_small_step_against_the_gradient_enters_the_region(x, y):
         value = G(point)
         (grad,) = torch.autograd.grad(value.sum(), point)
         if value.item() == 0.0:
-            assert torch.equal(grad, torch.zeros_like(grad))
+            # Inside (or so close outside that the squared distance underflows): no correction.
+            assert grad.abs().max().item() < 1e-100
         else:
             # G is a squared distance: a gradient step of 1/2 lands exactly on the region.
             assert G(point.detach() - 0.5 * grad).item() < 1e-9
