@@ -76,6 +76,7 @@ __all__ = [
     "build_motion_model",
     "train_motion_model",
     "trained_motion_model",
+    "model_code",
     "sample_motions",
     "states_to_motions",
     "final_pelvis_distance",
@@ -494,6 +495,12 @@ def train_motion_model(tensors: InteractionTensors, config: MotionModelConfig, d
     return model.eval(), result
 
 
+def model_code() -> tuple:
+    """The modules a trained motion model depends on (its data pipeline included): its cache key's code."""
+    return (sys.modules[__name__], diffusion_module, transformer_module, pointnet_module, cvae_module,
+            features_module, data_module, rollout_module, prior_module, anchors_module)
+
+
 def trained_motion_model(dataset, config: MotionModelConfig, device="cpu", progress: bool = True):
     """The motion model for a synthetic dataset, trained once and then loaded from the artifact cache.
 
@@ -515,9 +522,7 @@ def trained_motion_model(dataset, config: MotionModelConfig, device="cpu", progr
                 "seconds": float(result.seconds), "n_sequences": len(tensors)}
 
     key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(config)}
-    code = (sys.modules[__name__], diffusion_module, transformer_module, pointnet_module, cvae_module,
-            features_module, data_module, rollout_module, prior_module, anchors_module)
-    artifact = load_or_build(f"nifty_{config.action}_motion_model", key, build, code=code)
+    artifact = load_or_build(f"nifty_{config.action}_motion_model", key, build, code=model_code())
     model = NiftyMotionModel(config)
     model.load_state_dict(artifact["state"])
     info = {name: value for name, value in artifact.items() if name != "state"}

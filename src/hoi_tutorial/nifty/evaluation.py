@@ -1,0 +1,396 @@
+"""NIFTY's evaluation protocol (§4.2, Appendix C.2): test scenes and the metrics of Table 1.
+
+Test scenes are *not* made with the data pipeline (that would look too much like the training
+data): NIFTY places objects at random and starts the person from a random pose. Here a scene takes
+one of the training anchors' objects, and a person of that anchor's body shape standing or walking
+(a random frame of a toy-mocap ``idle`` or ``walk`` clip, the prior's own kind of motion) at a
+random distance and heading around it.
+
+Per generated motion (its last frame is the interaction pose):
+
+- **foot skating** of the right toe vertex (:func:`~hoi_tutorial.metrics.foot_skating`);
+- **D2O**, the distance from the final body to the object's surface (2K surface points);
+- the **penetration score** of the first ``N_A`` frames, the approach
+  (:func:`~hoi_tutorial.metrics.penetration_score` over 2K object points; ``N_A`` from the
+  synthetic data with :func:`approach_length`);
+- **skeleton distance** from the final pose to the nearest anchor pose of the training data, both
+  in their object's frame, and the **contact IoU** between the final body's contacting vertices
+  and the nearest anchor's (vertices inside the object);
+- the pelvis's ground-plane distance to the object's centre at the start and at the end (how far
+  the person got).
+
+:func:`table_row` condenses them as Table 1 does.
+
+Scaled down: 500 test scenes per action -> a few dozen; sequences of 150 frames -> the model's
+``max_frames``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+import torch
+
+from .. import metrics
+from .._validate import check_choice
+from ..infra import load_or_build, single_threaded
+from ..world import body as body_module
+from ..world.features import canonicalize
+from ..world.mocap import generate_clip
+from ..world.motion import Motion
+from . import motion_model as mm
+from .motion_model import anchor_skeleton_distance, final_pelvis_distance
+
+__all__ = [
+    "TestScene",
+    "test_scenes",
+    "scene_distance_range",
+    "EvaluationConfig",
+    "evaluate_motion_model",
+    "APPROACH_QUANTILE",
+    "approach_length",
+    "evaluate_motions",
+    "table_row",
+    "TABLE1_COLUMNS",
+]
+
+# NIFTY Appendix C.2: the median approach length for sitting, the 15th percentile for lifting.
+APPROACH_QUANTILE = {"sit": 0.5, "lift": 0.15}
+
+# Table 1's columns, in its order (direction of each in its name).
+TABLE1_COLUMNS = ("Foot Skating ↓", "% D2O ≤ 2cm ↑", "D2O 95th % ↓", "Skel. Dist. ↓", "Contact IoU ↑",
+                  "% Pen. ≤ 2cm ↑")
+
+
+@dataclass
+class TestScene:
+    """One evaluation scene.
+
+    Attributes:
+        obj: the object, placed in the world.
+        start: a two-frame world ``Motion``: the start pose ``X_0`` and the frame after it (its
+            velocities).
+        anchor: index of the training anchor whose object and body shape the scene uses.
+        distance: metres, the start pelvis's ground-plane distance to the object's centre.
+    """
+
+    obj: object
+    start: Motion
+    anchor: int
+    distance: float
+
+
+def _object_centre(obj) -> np.ndarray:
+    return np.asarray(obj.pose, dtype=np.float64)[:2, 3]
+
+
+@single_threaded
+def test_scenes(anchors: Sequence, n_scenes: int, distance_range: tuple[float, float], seed: int = 0,
+                kinds: tuple[str, ...] = ("idle", "walk")) -> list[TestScene]:
+    """Random test scenes around the anchors' objects (NIFTY §4.2, "test scenes").
+
+    Scene ``i`` uses anchor ``i mod len(anchors)`` (its object where it stands, its body shape).
+    The start pose is a random frame of a toy-mocap clip of a kind drawn from ``kinds``, moved so
+    that its pelvis stands ``d ~ U(distance_range)`` metres from the object's centre in a random
+    direction, facing a random heading (uniform over the circle: the person may start with the
+    object behind them).
+
+    Args:
+        anchors: ``nifty.anchors.Anchor`` records (``obj``, ``betas``).
+        n_scenes: number of scenes.
+        distance_range: ``(low, high)`` metres, ``0 < low ≤ high``.
+        seed: seeds everything random here.
+        kinds: toy-mocap kinds the start pose comes from.
+    Returns:
+        ``n_scenes`` :class:`TestScene`.
+    """
+    anchors = list(anchors)
+    if not anchors:
+        raise ValueError("anchors: expected at least one anchor")
+    if not isinstance(n_scenes, (int, np.integer)) or n_scenes < 1:
+        raise ValueError(f"n_scenes: expected a positive int, got {n_scenes!r}")
+    low, high = (float(v) for v in distance_range)
+    if not 0.0 < low <= high:
+        raise ValueError(f"distance_range: expected 0 < low <= high metres, got {distance_range!r}")
+    for kind in kinds:
+        check_choice(kind, ("idle", "walk", "turn", "side_step"), "kinds")
+    rng = np.random.default_rng([int(seed), 4242])
+    scenes = []
+    for i in range(int(n_scenes)):
+        a = i % len(anchors)
+        anchor = anchors[a]
+        kind = str(rng.choice(kinds))
+        clip = generate_clip(kind, seed=int(rng.integers(2**31)), betas=anchor.betas)
+        t = int(rng.integers(0, len(clip) - 1))
+        pose = canonicalize(clip.slice(t, t + 2))  # pelvis over the origin, facing +Y
+        distance = float(rng.uniform(low, high))
+        direction = float(rng.uniform(0.0, 2.0 * math.pi))
+        heading = float(rng.uniform(0.0, 2.0 * math.pi))
+        where = _object_centre(anchor.obj) + distance * np.array([math.cos(direction), math.sin(direction)])
+        translation = torch.tensor([where[0], where[1], 0.0], dtype=pose.root_position.dtype)
+        scenes.append(TestScene(anchor.obj, pose.transformed(heading, translation), a, distance))
+    return scenes
+
+
+def _penetration_per_frame(motion: Motion, object_points: torch.Tensor, frames=None) -> np.ndarray:
+    """``(T', P)`` body SDF of every frame at the object points (negative inside the body).
+
+    Float32: millimetre precision is plenty for a 2 cm threshold, at half the cost.
+    """
+    rot, pos = motion.global_rotations, motion.joints
+    if frames is not None:
+        rot, pos = rot[frames], pos[frames]
+    sdf = body_module.body_sdf(object_points.float(), rot.float(), pos.float(), motion.betas.float())
+    return sdf.detach().cpu().numpy()
+
+
+def _world_object_points(obj, n_points: int, seed: int) -> torch.Tensor:
+    return torch.as_tensor(np.asarray(obj.surface_points(n_points, seed=seed), dtype=np.float64))
+
+
+@single_threaded
+def approach_length(motions: Sequence[Motion], objects: Sequence, action: str, max_frames: Optional[int] = None,
+                    n_object_points: int = 2000, seed: int = 0) -> int:
+    """``N_A``, the approach length of the synthetic data (NIFTY Appendix C.2).
+
+    For each data sequence the per-frame penetration (summed depth of the object's surface points
+    inside the body) is computed, its approach length is the frame from which that curve only
+    grows (:func:`~hoi_tutorial.metrics.approach_frames`), and ``N_A`` is the median over the
+    data for sitting and the 15th percentile for lifting (:data:`APPROACH_QUANTILE`).
+
+    Args:
+        motions: data sequences (world frame), each ending in its interaction pose.
+        objects: the object of each sequence.
+        action: ``"sit"`` or ``"lift"``.
+        max_frames: pad each sequence with its last frame (or keep its last ``max_frames``) to
+            this length first, as the motion model sees it; ``None`` leaves them as they are.
+        n_object_points: surface points per object (NIFTY: 2K).
+        seed: seed of the point sampling.
+    Returns:
+        ``N_A`` (frames).
+    """
+    check_choice(action, tuple(APPROACH_QUANTILE), "action")
+    motions, objects = list(motions), list(objects)
+    if not motions or len(motions) != len(objects):
+        raise ValueError(f"motions, objects: expected equal, non-zero lengths, got {len(motions)}, {len(objects)}")
+    curves = []
+    clouds = {}
+    for motion, obj in zip(motions, objects):
+        if id(obj) not in clouds:
+            clouds[id(obj)] = _world_object_points(obj, n_object_points, seed)
+        depth = np.clip(-_penetration_per_frame(motion, clouds[id(obj)]), 0.0, None).sum(-1)
+        if max_frames is not None:
+            depth = depth[-int(max_frames):]
+            depth = np.concatenate([depth, np.full(int(max_frames) - len(depth), depth[-1])])
+        curves.append(depth)
+    return metrics.approach_length_quantile(curves, APPROACH_QUANTILE[action])
+
+
+@single_threaded
+def evaluate_motions(motions: Sequence[Motion], objects: Sequence, anchors: Sequence, n_approach: int,
+                     n_object_points: int = 2000, seed: int = 0, reach: float = 0.02) -> dict:
+    """NIFTY's per-sequence metrics (§4.2) for generated (or data) interaction motions.
+
+    Args:
+        motions: ``N`` world-frame motions; the last frame is the interaction pose.
+        objects: the object of each motion (placed in the world).
+        anchors: the training anchors (``nifty.anchors.Anchor``), for skeleton distance and IoU.
+        n_approach: ``N_A`` frames of approach for the penetration score (clamped to each length).
+        n_object_points: object surface points for D2O and penetration (NIFTY: 2K).
+        seed: seed of the point sampling.
+        reach: metres, the D2O below which a sequence counts as reaching the object.
+    Returns:
+        dict of ``(N,)`` numpy arrays: ``foot_skating`` (m/s), ``d2o`` (m), ``penetration`` (m),
+        ``skeleton_distance`` (m, summed over the 22 joints), ``nearest_anchor`` (int),
+        ``contact_iou``, ``start_distance`` and ``final_distance`` (m, pelvis to object centre).
+    """
+    motions, objects, anchors = list(motions), list(objects), list(anchors)
+    if not motions or len(motions) != len(objects):
+        raise ValueError(f"motions, objects: expected equal, non-zero lengths, got {len(motions)}, {len(objects)}")
+    if not anchors:
+        raise ValueError("anchors: expected at least one anchor")
+    if not isinstance(n_approach, (int, np.integer)) or n_approach < 1:
+        raise ValueError(f"n_approach: expected a positive int, got {n_approach!r}")
+    # Contacting vertices of every anchor with its own object, computed once.
+    anchor_contacts = []
+    for anchor in anchors:
+        pose = anchor.pose
+        motion = Motion(pose.local_rotations[None], pose.root_position[None], anchor.betas)
+        vertices = body_module.body_from_motion(motion)[0]
+        anchor_contacts.append(body_module.object_contact_vertices(vertices, anchor.obj.sdf))
+    clouds = {}
+    out = {name: [] for name in ("foot_skating", "d2o", "penetration", "skeleton_distance", "nearest_anchor",
+                                 "contact_iou", "start_distance", "final_distance")}
+    for motion, obj in zip(motions, objects):
+        if not isinstance(motion, Motion):
+            raise TypeError(f"motions: expected Motion records, got {type(motion).__name__}")
+        if id(obj) not in clouds:
+            clouds[id(obj)] = _world_object_points(obj, n_object_points, seed)
+        points = clouds[id(obj)]
+        final_vertices = body_module.body_from_motion(motion, frames=[len(motion) - 1])[0]
+        n = min(int(n_approach), len(motion))
+        distance, nearest = anchor_skeleton_distance(motion, anchors, obj)
+        last, first = final_pelvis_distance(motion, obj)
+        out["foot_skating"].append(float(metrics.foot_skating(body_module.toe_positions(motion), fps=motion.fps)))
+        d2o = float(metrics.distance_to_object(final_vertices, points))
+        out["d2o"].append(d2o)
+        out["penetration"].append(float(metrics.penetration_score(
+            _penetration_per_frame(motion, points, frames=slice(0, n)))) if d2o <= reach else math.nan)
+        out["skeleton_distance"].append(float(distance))
+        out["nearest_anchor"].append(int(nearest))
+        contacts = body_module.object_contact_vertices(final_vertices, obj.sdf)
+        out["contact_iou"].append(float(metrics.contact_iou(contacts, anchor_contacts[nearest])))
+        out["start_distance"].append(first)
+        out["final_distance"].append(last)
+    return {name: np.asarray(values) for name, values in out.items()}
+
+
+def table_row(results: dict, d2o_threshold: float = 0.02, penetration_threshold: float = 0.02) -> dict:
+    """One row of NIFTY Table 1 from :func:`evaluate_motions` output.
+
+    Returns ``{column: value}`` over :data:`TABLE1_COLUMNS`: mean foot skating, % of sequences with
+    D2O ≤ 2 cm, the 95th percentile of D2O (metres), mean skeleton distance (metres), mean contact
+    IoU, and the % of sequences with penetration ≤ 2 cm among those with D2O ≤ 2 cm (NaN when none
+    reaches the object).
+    """
+    missing = {"foot_skating", "d2o", "penetration", "skeleton_distance", "contact_iou"} - set(results)
+    if missing:
+        raise ValueError(f"results: expected the output of evaluate_motions, missing {sorted(missing)}")
+    d2o = metrics.d2o_summary(results["d2o"], threshold=d2o_threshold)
+    values = (
+        float(np.mean(results["foot_skating"])),
+        d2o["pct_within"],
+        d2o["p95"],
+        float(np.mean(results["skeleton_distance"])),
+        float(np.mean(results["contact_iou"])),
+        metrics.penetration_pass_rate(results["penetration"], results["d2o"], threshold=penetration_threshold,
+                                      d2o_threshold=d2o_threshold),
+    )
+    return dict(zip(TABLE1_COLUMNS, values))
+
+
+# --------------------------------------------------------------------------- a trained model, end to end
+
+
+@dataclass(frozen=True)
+class EvaluationConfig:
+    """What :func:`evaluate_motion_model` samples and measures (part of its cache key).
+
+    Attributes:
+        n_scenes: random test scenes (NIFTY: 500 per action).
+        n_training: training sequences whose own conditions are sampled too (the model's best case).
+        n_approach_sequences: data sequences ``N_A`` is estimated from.
+        n_object_points: object surface points for D2O and penetration (NIFTY: 2K).
+        guidance_scale: classifier-free guidance ``s`` (None: the model's, MDM's 2.5).
+        seed: seeds scenes, subsets, point sampling and the sampler's noise.
+    """
+
+    n_scenes: int = 32
+    n_training: int = 16
+    n_approach_sequences: int = 24
+    n_object_points: int = 2000
+    guidance_scale: Optional[float] = None
+    seed: int = 0
+
+
+def scene_distance_range(dataset, low: float = 5.0, high: float = 95.0) -> tuple[float, float]:
+    """The ``(low, high)`` percentiles of the training sequences' start distances (metres)."""
+    starts = [final_pelvis_distance(s.motion, s.obj)[1] for s in dataset.sequences]
+    if not starts:
+        raise ValueError("dataset: expected at least one training sequence")
+    return float(np.percentile(starts, low)), float(np.percentile(starts, high))
+
+
+def _subset(n_total: int, n: int, seed: int, salt: int) -> list[int]:
+    rng = np.random.default_rng([int(seed), salt])
+    return sorted(int(i) for i in rng.choice(n_total, size=min(int(n), n_total), replace=False))
+
+
+def _motions_payload(motions: Sequence[Motion]) -> dict:
+    return {"local_rotations": torch.stack([m.local_rotations.float() for m in motions]),
+            "root_position": torch.stack([m.root_position.float() for m in motions])}
+
+
+def _payload_motions(payload: dict, betas: Sequence[torch.Tensor]) -> list[Motion]:
+    return [Motion(rots.double(), root.double(), b)
+            for rots, root, b in zip(payload["local_rotations"], payload["root_position"], betas)]
+
+
+def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConfig] = None, device="cpu",
+                          progress: bool = False) -> dict:
+    """Sample a trained motion model and score it with NIFTY's metrics, once (then from the cache).
+
+    Three sets of motions are scored with :func:`evaluate_motions`:
+
+    - ``"scenes"``: one unguided sample per random test scene (:func:`test_scenes`, start distances
+      spanning the training data's, see :func:`scene_distance_range`) — NIFTY's Cond. MDM baseline;
+    - ``"training"``: one sample for each of ``n_training`` training sequences' own condition, to
+      set beside those sequences;
+    - ``"data"``: the same training sequences themselves (the synthetic data's own scores).
+
+    Args:
+        dataset: a ``nifty.data.SyntheticDataset``.
+        model_config: the ``nifty.motion_model.MotionModelConfig`` of the model (trained or loaded
+            with ``trained_motion_model``).
+        config: an :class:`EvaluationConfig`.
+        device: where to train (if needed) and sample.
+        progress: progress bar while training.
+    Returns:
+        dict with ``n_approach`` (``N_A``), ``training_index`` (indices into
+        ``dataset.sequences``), ``test_scenes`` (the :class:`TestScene` list), ``distance_range`` and,
+        for each of
+        ``"scenes"``, ``"training"``, ``"data"``: ``{"motions": [Motion], "metrics": {...}}``.
+    """
+    config = config or EvaluationConfig()
+    if not dataset.sequences:
+        raise ValueError("dataset: expected at least one training sequence")
+    distance_range = scene_distance_range(dataset)
+    scenes = test_scenes(dataset.anchors, config.n_scenes, distance_range, seed=config.seed)
+    training_index = _subset(len(dataset.sequences), config.n_training, config.seed, 1)
+    approach_index = _subset(len(dataset.sequences), config.n_approach_sequences, config.seed, 2)
+    training = [dataset.sequences[i] for i in training_index]
+
+    def build():
+        model, _ = mm.trained_motion_model(dataset, model_config, device=device, progress=progress)
+        n_approach = approach_length([dataset.sequences[i].motion for i in approach_index],
+                                     [dataset.sequences[i].obj for i in approach_index], dataset.config.action,
+                                     max_frames=model_config.max_frames, n_object_points=config.n_object_points,
+                                     seed=config.seed)
+        # One sampling call for the scenes and the training conditions together.
+        conditions = [mm.interaction_condition(s.start, s.obj, model_config.n_points, seed=config.seed)
+                      for s in scenes]
+        tensors = mm.InteractionTensors.from_sequences(training, model_config.max_frames, model_config.n_points,
+                                                       model_config.seed)
+        cond = {name: torch.cat([torch.stack([c[name] for c in conditions]), tensors.condition()[name]])
+                for name in mm.CONDITION_KEYS}
+        placement = torch.cat([torch.stack([c["world_from_canonical"] for c in conditions]),
+                               tensors.world_from_canonical])
+        generator = torch.Generator().manual_seed(config.seed)
+        states = mm.sample_motions(model, cond, generator=generator, guidance_scale=config.guidance_scale,
+                                   device=device)
+        motions = mm.states_to_motions(states, cond["betas"], placement)
+        objects = [s.obj for s in scenes] + [s.obj for s in training]
+        out = {"n_approach": int(n_approach), "sets": {}}
+        parts = {"scenes": (motions[:len(scenes)], objects[:len(scenes)]),
+                 "training": (motions[len(scenes):], objects[len(scenes):]),
+                 "data": ([s.motion for s in training], objects[len(scenes):])}
+        for name, (ms, objs) in parts.items():
+            scores = evaluate_motions(ms, objs, dataset.anchors, n_approach, config.n_object_points, config.seed)
+            out["sets"][name] = {"metrics": scores, **({} if name == "data" else _motions_payload(ms))}
+        return out
+
+    key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config),
+           "evaluation": dataclasses.asdict(config)}
+    artifact = load_or_build(f"nifty_{dataset.config.action}_motion_model_evaluation", key, build,
+                             code=mm.model_code() + (sys.modules[__name__], body_module, metrics))
+    result = {"n_approach": artifact["n_approach"], "training_index": training_index, "test_scenes": scenes,
+              "distance_range": distance_range}
+    betas = {"scenes": [s.start.betas for s in scenes], "training": [s.motion.betas for s in training]}
+    for name, part in artifact["sets"].items():
+        motions = [s.motion for s in training] if name == "data" else _payload_motions(part, betas[name])
+        result[name] = {"motions": motions, "metrics": part["metrics"]}
+    return result

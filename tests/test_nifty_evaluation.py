@@ -1,0 +1,183 @@
+"""NIFTY's evaluation protocol (§4.2, Appendix C.2): test scenes, per-motion metrics, Table 1 rows."""
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from hoi_tutorial.nifty import evaluation
+from hoi_tutorial.nifty.anchors import Anchor
+from hoi_tutorial.nifty.data import SyntheticDataset, synthetic_data_config
+from hoi_tutorial.nifty.motion_model import final_pelvis_distance, motion_model_config
+from hoi_tutorial.nifty.motion_prior import PoseTrack
+from hoi_tutorial.nifty.rollout import InteractionSequence
+from hoi_tutorial.world.mocap import generate_clip
+from hoi_tutorial.world.objects import make_object
+from hoi_tutorial.world.skeleton import NUM_JOINTS
+
+FRAMES = 61
+
+
+def _anchor_of(clip, frame, obj, subject=0):
+    pose = PoseTrack(clip.local_rotations[frame], clip.root_position[frame], clip.joints[frame])
+    nxt = PoseTrack(clip.local_rotations[frame + 1], clip.root_position[frame + 1], clip.joints[frame + 1])
+    return Anchor("sit", pose, nxt, clip.betas, subject, obj, clip)
+
+
+@pytest.fixture(scope="module")
+def sit_case():
+    """Two sit clips cut to end at their settle frame, their chairs and their anchors."""
+    records, anchors = [], []
+    for seed, (x, y, yaw) in enumerate([(0.5, -1.0, 0.3), (-1.0, 2.0, 2.0)]):
+        obj = make_object("chair", seed=seed).placed(x, y, yaw)
+        clip = generate_clip("sit", seed=seed, obj=obj)
+        a = int(clip.meta["anchor_frame"])
+        anchor = _anchor_of(clip, a, obj, subject=seed)
+        records.append(InteractionSequence(clip.slice(a - FRAMES + 1, a + 1), obj, anchor))
+        anchors.append(anchor)
+    return records, anchors
+
+
+# --------------------------------------------------------------------------- test scenes
+
+
+def test_scenes_cycle_anchors_and_respect_the_distance_range(sit_case):
+    _, anchors = sit_case
+    scenes = evaluation.test_scenes(anchors, 5, (1.0, 1.5), seed=3)
+    assert [s.anchor for s in scenes] == [0, 1, 0, 1, 0]
+    for scene in scenes:
+        assert scene.obj is anchors[scene.anchor].obj
+        assert len(scene.start) == 2
+        torch.testing.assert_close(scene.start.betas, anchors[scene.anchor].betas)
+        assert 1.0 <= scene.distance <= 1.5
+        # The recorded distance is the start pelvis's ground-plane distance to the object's centre.
+        _, first = final_pelvis_distance(scene.start, scene.obj)
+        assert first == pytest.approx(scene.distance, abs=1e-6)
+        assert scene.start.joints[0, :, 2].min() > -0.05  # standing on the ground, not under it
+
+
+def test_scenes_are_deterministic_for_a_seed(sit_case):
+    _, anchors = sit_case
+    a = evaluation.test_scenes(anchors, 3, (1.0, 2.0), seed=7)
+    b = evaluation.test_scenes(anchors, 3, (1.0, 2.0), seed=7)
+    c = evaluation.test_scenes(anchors, 3, (1.0, 2.0), seed=8)
+    for x, y in zip(a, b):
+        torch.testing.assert_close(x.start.joints, y.start.joints, rtol=0, atol=0)
+    assert not torch.equal(a[0].start.joints, c[0].start.joints)
+
+
+def test_scenes_reject_bad_input(sit_case):
+    _, anchors = sit_case
+    with pytest.raises(ValueError, match="distance_range"):
+        evaluation.test_scenes(anchors, 2, (1.5, 1.0))
+    with pytest.raises(ValueError, match="n_scenes"):
+        evaluation.test_scenes(anchors, 0, (1.0, 1.5))
+    with pytest.raises(ValueError, match="anchors"):
+        evaluation.test_scenes([], 2, (1.0, 1.5))
+    with pytest.raises(ValueError, match="kinds"):
+        evaluation.test_scenes(anchors, 2, (1.0, 1.5), kinds=("dance",))
+
+
+# --------------------------------------------------------------------------- per-motion metrics
+
+
+def test_a_motion_ending_in_its_anchor_scores_like_the_data(sit_case):
+    records, anchors = sit_case
+    scores = evaluation.evaluate_motions([r.motion for r in records], [r.obj for r in records], anchors,
+                                         n_approach=30, n_object_points=500)
+    np.testing.assert_allclose(scores["skeleton_distance"], 0.0, atol=1e-9)
+    assert scores["nearest_anchor"].tolist() == [0, 1]
+    np.testing.assert_allclose(scores["contact_iou"], 1.0)
+    assert (scores["d2o"] <= 0.02).all()  # seated: the body touches the seat
+    assert np.isfinite(scores["penetration"]).all()  # reached, so the approach is scored
+    assert (scores["final_distance"] < scores["start_distance"]).all()
+    assert (scores["foot_skating"] >= 0).all()
+
+
+def test_a_pose_shifted_one_metre_is_22_metres_of_skeleton_distance(sit_case):
+    records, anchors = sit_case
+    record = records[0]
+    away = record.motion.transformed(0.0, torch.tensor([1.0, 0.0, 0.0], dtype=record.motion.root_position.dtype))
+    scores = evaluation.evaluate_motions([away], [record.obj], anchors[:1], n_approach=30, n_object_points=500)
+    # Every joint is exactly 1 m from the anchor's: the sum over the 22 joints is 22 m.
+    assert scores["skeleton_distance"][0] == pytest.approx(NUM_JOINTS * 1.0, abs=1e-4)
+    assert scores["d2o"][0] > 0.3
+    assert math.isnan(scores["penetration"][0])  # not reaching: Table 1 does not score its approach
+
+
+def test_evaluate_motions_rejects_bad_input(sit_case):
+    records, anchors = sit_case
+    with pytest.raises(ValueError, match="motions, objects"):
+        evaluation.evaluate_motions([records[0].motion], [], anchors, n_approach=10)
+    with pytest.raises(ValueError, match="n_approach"):
+        evaluation.evaluate_motions([records[0].motion], [records[0].obj], anchors, n_approach=0)
+    with pytest.raises(ValueError, match="anchors"):
+        evaluation.evaluate_motions([records[0].motion], [records[0].obj], [], n_approach=10)
+
+
+def test_approach_length_of_motions_that_never_touch_is_the_whole_motion(sit_case):
+    records, _ = sit_case
+    far = [r.motion.slice(0, 20).transformed(0.0, torch.tensor([5.0, 5.0, 0.0], dtype=torch.float64))
+           for r in records]
+    assert evaluation.approach_length(far, [r.obj for r in records], "sit", max_frames=30,
+                                      n_object_points=300) == 30
+    with pytest.raises(ValueError, match="action"):
+        evaluation.approach_length(far, [r.obj for r in records], "dance")
+
+
+def test_approach_length_of_sitting_ends_before_the_seat_is_reached(sit_case):
+    records, _ = sit_case
+    n = evaluation.approach_length([r.motion for r in records], [r.obj for r in records], "sit",
+                                   n_object_points=500)
+    assert 0 < n < FRAMES  # the penetration only grows once the person sits down
+
+
+# --------------------------------------------------------------------------- Table 1
+
+
+def test_table_row_known_answer():
+    results = {
+        "foot_skating": np.array([0.1, 0.3, 0.2, 0.4]),
+        "d2o": np.array([0.0, 0.01, 0.5, 1.0]),
+        "penetration": np.array([0.01, 0.03, np.nan, np.nan]),
+        "skeleton_distance": np.array([1.0, 2.0, 3.0, 6.0]),
+        "contact_iou": np.array([1.0, 0.5, 0.0, 0.0]),
+    }
+    row = evaluation.table_row(results)
+    assert list(row) == list(evaluation.TABLE1_COLUMNS)
+    assert row["Foot Skating ↓"] == pytest.approx(0.25)
+    assert row["% D2O ≤ 2cm ↑"] == pytest.approx(50.0)
+    assert row["D2O 95th % ↓"] == pytest.approx(np.percentile(results["d2o"], 95))
+    assert row["Skel. Dist. ↓"] == pytest.approx(3.0)
+    assert row["Contact IoU ↑"] == pytest.approx(0.375)
+    assert row["% Pen. ≤ 2cm ↑"] == pytest.approx(50.0)  # of the two that reach, one penetrates ≤ 2 cm
+    with pytest.raises(ValueError, match="missing"):
+        evaluation.table_row({"d2o": results["d2o"]})
+
+
+# --------------------------------------------------------------------------- a model, end to end
+
+
+def test_evaluate_motion_model_samples_scores_and_caches(sit_case, tmp_cache):
+    records, anchors = sit_case
+    dataset = SyntheticDataset(config=synthetic_data_config("sit", "toy"), anchors=anchors, sequences=records,
+                               leaves=[], all_paths=[], tree_stats=[], stats={})
+    model_config = motion_model_config("sit", "toy", max_frames=FRAMES, width=32, layers=1, heads=4, n_points=64,
+                                       pointnet_hidden=(32,), diffusion_steps=10, steps=3, batch_size=2,
+                                       warmup_steps=0)
+    config = evaluation.EvaluationConfig(n_scenes=3, n_training=2, n_approach_sequences=2, n_object_points=200)
+    result = evaluation.evaluate_motion_model(dataset, model_config, config)
+    assert len(result["test_scenes"]) == 3 and result["training_index"] == [0, 1]
+    assert 0 < result["n_approach"] <= FRAMES
+    assert len(result["scenes"]["motions"]) == 3 and len(result["training"]["motions"]) == 2
+    assert all(len(m) == FRAMES for m in result["scenes"]["motions"])
+    # The data set's own motions score as the data.
+    np.testing.assert_allclose(result["data"]["metrics"]["skeleton_distance"], 0.0, atol=1e-9)
+    for name in ("scenes", "training", "data"):
+        assert set(result[name]["metrics"]) >= {"d2o", "skeleton_distance", "final_distance", "start_distance"}
+    assert all(torch.isfinite(m.joints).all() for m in result["scenes"]["motions"])
+    again = evaluation.evaluate_motion_model(dataset, model_config, config)
+    assert len(list(tmp_cache.glob("nifty_sit_motion_model_evaluation-*.pt"))) == 1
+    for name in ("scenes", "training"):
+        np.testing.assert_array_equal(result[name]["metrics"]["d2o"], again[name]["metrics"]["d2o"])
+        torch.testing.assert_close(result[name]["motions"][0].joints, again[name]["motions"][0].joints)
