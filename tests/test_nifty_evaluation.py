@@ -11,6 +11,7 @@ from hoi_tutorial.nifty.data import SyntheticDataset, synthetic_data_config
 from hoi_tutorial.nifty.motion_model import final_pelvis_distance, motion_model_config
 from hoi_tutorial.nifty.motion_prior import PoseTrack
 from hoi_tutorial.nifty.rollout import InteractionSequence
+from hoi_tutorial.world.body import body_from_motion
 from hoi_tutorial.world.mocap import generate_clip
 from hoi_tutorial.world.objects import make_object
 from hoi_tutorial.world.skeleton import NUM_JOINTS
@@ -54,6 +55,8 @@ def test_scenes_cycle_anchors_and_respect_the_distance_range(sit_case):
         _, first = final_pelvis_distance(scene.start, scene.obj)
         assert first == pytest.approx(scene.distance, abs=1e-6)
         assert scene.start.joints[0, :, 2].min() > -0.05  # standing on the ground, not under it
+        vertices = body_from_motion(scene.start, frames=[0])[0].double().numpy()
+        assert scene.obj.sdf(vertices).min() > 0.05  # clear of the object
 
 
 def test_scenes_are_deterministic_for_a_seed(sit_case):
@@ -176,6 +179,8 @@ def test_evaluate_motion_model_samples_scores_and_caches(sit_case, tmp_cache):
     for name in ("scenes", "training", "data"):
         assert set(result[name]["metrics"]) >= {"d2o", "skeleton_distance", "final_distance", "start_distance"}
     assert all(torch.isfinite(m.joints).all() for m in result["scenes"]["motions"])
+    assert result["training"]["metrics"]["final_distance_positions"].shape == (2,)
+    assert "final_distance_positions" not in result["data"]["metrics"]
     again = evaluation.evaluate_motion_model(dataset, model_config, config)
     assert len(list(tmp_cache.glob("nifty_sit_motion_model_evaluation-*.pt"))) == 1
     for name in ("scenes", "training"):

@@ -39,7 +39,7 @@ from .. import metrics
 from .._validate import check_choice
 from ..infra import load_or_build, single_threaded
 from ..world import body as body_module
-from ..world.features import canonicalize
+from ..world.features import NIFTY_STATE_LAYOUT, canonicalize
 from ..world.mocap import generate_clip
 from ..world.motion import Motion
 from . import motion_model as mm
@@ -84,6 +84,10 @@ class TestScene:
     distance: float
 
 
+_PLACEMENT_TRIES = 100
+_START_CLEARANCE = 0.05  # metres between the start body and the object
+
+
 def _object_centre(obj) -> np.ndarray:
     return np.asarray(obj.pose, dtype=np.float64)[:2, 3]
 
@@ -97,7 +101,8 @@ def test_scenes(anchors: Sequence, n_scenes: int, distance_range: tuple[float, f
     The start pose is a random frame of a toy-mocap clip of a kind drawn from ``kinds``, moved so
     that its pelvis stands ``d ~ U(distance_range)`` metres from the object's centre in a random
     direction, facing a random heading (uniform over the circle: the person may start with the
-    object behind them).
+    object behind them); placements where the body would come within 5 cm of the object are
+    drawn again.
 
     Args:
         anchors: ``nifty.anchors.Anchor`` records (``obj``, ``betas``).
@@ -127,12 +132,20 @@ def test_scenes(anchors: Sequence, n_scenes: int, distance_range: tuple[float, f
         clip = generate_clip(kind, seed=int(rng.integers(2**31)), betas=anchor.betas)
         t = int(rng.integers(0, len(clip) - 1))
         pose = canonicalize(clip.slice(t, t + 2))  # pelvis over the origin, facing +Y
-        distance = float(rng.uniform(low, high))
-        direction = float(rng.uniform(0.0, 2.0 * math.pi))
-        heading = float(rng.uniform(0.0, 2.0 * math.pi))
-        where = _object_centre(anchor.obj) + distance * np.array([math.cos(direction), math.sin(direction)])
-        translation = torch.tensor([where[0], where[1], 0.0], dtype=pose.root_position.dtype)
-        scenes.append(TestScene(anchor.obj, pose.transformed(heading, translation), a, distance))
+        for _ in range(_PLACEMENT_TRIES):
+            distance = float(rng.uniform(low, high))
+            direction = float(rng.uniform(0.0, 2.0 * math.pi))
+            heading = float(rng.uniform(0.0, 2.0 * math.pi))
+            where = _object_centre(anchor.obj) + distance * np.array([math.cos(direction), math.sin(direction)])
+            translation = torch.tensor([where[0], where[1], 0.0], dtype=pose.root_position.dtype)
+            start = pose.transformed(heading, translation)
+            # The person must start clear of the object (a wide sofa reaches past the nearest starts).
+            vertices = body_module.body_from_motion(start, frames=[0])[0]
+            if float(np.min(anchor.obj.sdf(vertices.detach().double().numpy()))) > _START_CLEARANCE:
+                break
+        else:
+            raise RuntimeError(f"test_scenes: no start {low}-{high} m from the {anchor.obj.category} clears it")
+        scenes.append(TestScene(anchor.obj, start, a, distance))
     return scenes
 
 
@@ -332,6 +345,10 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
       set beside those sequences;
     - ``"data"``: the same training sequences themselves (the synthetic data's own scores).
 
+    The sampled sets' metrics also hold ``final_distance_positions``: the pelvis-to-centre distance
+    of the last frame when the root is read from the predicted positions ``t^p`` instead of the
+    integrated velocities (Appendix B), to show how much integration drift contributes.
+
     Args:
         dataset: a ``nifty.data.SyntheticDataset``.
         model_config: the ``nifty.motion_model.MotionModelConfig`` of the model (trained or loaded
@@ -378,8 +395,18 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
         parts = {"scenes": (motions[:len(scenes)], objects[:len(scenes)]),
                  "training": (motions[len(scenes):], objects[len(scenes):]),
                  "data": ([s.motion for s in training], objects[len(scenes):])}
+        # Appendix B reads the root from integrated velocities; for comparison, where the predicted
+        # positions t^p put the last frame.
+        last = states[:, -1, NIFTY_STATE_LAYOUT["root_position"]].double()
+        last = (placement[:, :3, :3].double() @ last[:, :, None])[..., 0] + placement[:, :3, 3].double()
+        centres = torch.as_tensor(np.stack([_object_centre(obj) for obj in objects]))
+        positions_end = (last[:, :2] - centres).norm(dim=-1).numpy()
         for name, (ms, objs) in parts.items():
             scores = evaluate_motions(ms, objs, dataset.anchors, n_approach, config.n_object_points, config.seed)
+            if name == "scenes":
+                scores["final_distance_positions"] = positions_end[:len(scenes)]
+            elif name == "training":
+                scores["final_distance_positions"] = positions_end[len(scenes):]
             out["sets"][name] = {"metrics": scores, **({} if name == "data" else _motions_payload(ms))}
         return out
 
