@@ -192,6 +192,28 @@ def test_end_heading_is_honoured(end_heading):
         assert "turn" in names and names.index("turn") > names.index("walk")
 
 
+@pytest.mark.parametrize("end_heading", [math.pi, -1.6, 1.0])
+def test_end_heading_is_reached_with_turning_steps(end_heading):
+    motion = gait.walk_path([[0, 0], [0.0, 2.5]], seed=4, end_heading=end_heading, end_turn="steps")
+    assert _angle_diff(_heading(motion, -1), end_heading) < math.radians(10)
+    assert np.linalg.norm(motion.root_position[-1, :2].numpy() - [0.0, 2.5]) < 0.15
+    # The body turns while it steps in: no turn on the spot, and shorter than walking, then turning.
+    assert "turn" not in motion.action_names()
+    spot = gait.walk_path([[0, 0], [0.0, 2.5]], seed=4, end_heading=end_heading)
+    assert len(motion) < len(spot) - 15
+    joints = motion.joints.numpy()
+    for side, column in CONTACT_COLUMN.items():
+        contact = motion.contacts[:, column]
+        both = contact[1:] & contact[:-1]
+        assert np.linalg.norm(np.diff(joints[:, FOOT[side], :2], axis=0), axis=1)[both].max(initial=0.0) < 0.002
+    # Turning steps never cross the legs: where both feet are down, the right one is to the right.
+    yaw = yaw_of_matrix(motion.global_rotations[:, 0]).numpy()
+    right = np.stack([np.cos(yaw), np.sin(yaw)], -1)
+    gap = np.einsum("ti,ti->t", joints[:, FOOT["right"], :2] - joints[:, FOOT["left"], :2], right)
+    planted = motion.contacts[:, 1] & motion.contacts[:, 2]
+    assert gap[planted].min() > 0.08
+
+
 def test_turn_in_place_turns_on_the_spot(clips):
     motion = clips["turn"]
     assert _angle_diff(_heading(motion, -1), 0.3 + 2.4) < math.radians(10)
@@ -291,6 +313,8 @@ def test_bad_inputs_raise_clear_errors():
         gait.walk_path([[0.0, 0.0]])
     with pytest.raises(ValueError, match="gait"):
         gait.walk_path([[0, 0], [1, 1]], gait="jog")
+    with pytest.raises(ValueError, match="end_turn"):
+        gait.walk_path([[0, 0], [1, 1]], end_heading=1.0, end_turn="hop")
     with pytest.raises(ValueError, match="duration"):
         gait.idle(-1.0)
     with pytest.raises(ValueError, match="start"):

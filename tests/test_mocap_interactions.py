@@ -16,6 +16,7 @@ from hoi_tutorial.world.body import body_from_motion, toe_positions
 from hoi_tutorial.world.mocap import interactions as I
 from hoi_tutorial.world.motion import ACTIONS, CONTACT_JOINTS
 from hoi_tutorial.world.objects import make_object
+from hoi_tutorial.world.rotations import yaw_of_matrix
 from hoi_tutorial.world.skeleton import PARENTS, bone_lengths, joint_index
 
 PELVIS_C = CONTACT_JOINTS.index("pelvis")
@@ -117,6 +118,29 @@ def test_sit_labels_follow_the_documented_sequence(clips, name):
     else:
         np.testing.assert_array_equal(pelvis, names == "sit")
     assert not motion.contacts[:, WRIST_C].any()
+
+
+@pytest.mark.parametrize("name", [n for n in CASES if n.startswith("sit_")])
+def test_sit_arrives_turned_and_sits_down_briskly(clips, name):
+    obj, motion = clips[name]
+    names = _names(motion)
+    start, anchor = motion.meta["interaction_start"], motion.meta["anchor_frame"]
+    # The walk's last steps turn the sitter round: it arrives with its back to the seat, with no
+    # long turn on the spot.
+    assert (names[:start] == "turn").sum() <= 0.5 * motion.fps
+    heading = float(yaw_of_matrix(motion.global_rotations[start, 0]))
+    facing = I._heading_of(motion.meta["sit_goal"]["direction"])
+    assert abs((heading - facing + math.pi) % (2 * math.pi) - math.pi) < math.radians(10)
+    # Sitting down takes 1-1.6 s (with the scoot back on a deep seat, at most 2 s), and at most
+    # a short back-up precedes it: four seconds before settling the sitter was still walking in,
+    # a metre or more from the object.
+    down = int((names[:anchor] == "sit_down").sum())
+    assert 1.0 * motion.fps <= down <= (2.0 if motion.meta["deep_seat"] else 1.6) * motion.fps
+    assert anchor - start <= down + 0.75 * motion.fps
+    earlier = anchor - int(round(4 * motion.fps))
+    assert earlier > 0 and names[earlier] == "walk"
+    before = motion.root_position[earlier, :2].double().numpy()
+    assert np.linalg.norm(before - obj.pose[:2, 3]) >= 1.0
 
 
 def test_crossed_legs_lift_one_foot_off_the_ground(clips):

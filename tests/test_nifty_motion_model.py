@@ -243,7 +243,7 @@ def test_guidance_hook_moves_the_final_root(overfit):
 
     plain = sample_motions(model, cond, generator=torch.Generator().manual_seed(0), n_samples=3)
     guided = sample_motions(model, cond, generator=torch.Generator().manual_seed(0), n_samples=3,
-                            guidance=objective, alpha=300.0)
+                            guidance=objective, alpha=600.0)
     assert len(seen) == config.diffusion_steps - 1  # every step but the last
     heights = seen[-1][..., NIFTY_STATE_LAYOUT["root_position"]][..., 2]
     assert bool(((heights > 0.3) & (heights < 1.2)).all())  # metres: the objective sees real states

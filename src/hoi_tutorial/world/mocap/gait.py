@@ -4,7 +4,8 @@ Every clip is built the same way, the way a procedural animation system builds i
 
 1. a *root plan*: where the pelvis is on the ground and which way it faces at every time: a
    smooth path through waypoints walked at a cruise speed (slower in tight bends, with smooth
-   starts and stops), a turn on the spot, a lateral shift, or standing;
+   starts and stops; optionally turning towards a final heading over the last steps), a turn on
+   the spot, a lateral shift, or standing;
 2. a *footstep plan*: feet alternate at a fixed cadence; each step lands beside where the root
    will be a set fraction of the way through the step's stance, half a step width to the side,
    turned with the root's heading. A foot in stance is exactly fixed on the ground: its ball
@@ -384,8 +385,16 @@ def footstep_plan(root_at, stop_time: float, *, initial: dict, first_side: str, 
 
 def _plan_footsteps(root_at, stop_time: float, *, initial: dict, first_side: str, step_period: float,
                     duty: float, half_width: float, over_foot: float, forward_offset: float, body: _Body,
-                    first_lift_off: float = 0.2, min_step: float = 0.03, max_steps: int = 400) -> list[Footstep]:
-    """:func:`footstep_plan` for a body whose rest geometry is already computed."""
+                    first_lift_off: float = 0.2, min_step: float = 0.03, max_steps: int = 400,
+                    min_gap: Optional[float] = None, settle_step: Optional[float] = None) -> list[Footstep]:
+    """:func:`footstep_plan` for a body whose rest geometry is already computed.
+
+    ``min_gap``: when given, a foot lands at least this far (metres) to its own side of the
+    other, planted foot, measured across the root's heading (turning steps that move the body
+    sideways would otherwise cross the legs). ``settle_step``: when given, a final step (one
+    that brings a foot to the standing stance) is taken only when it moves the foot at least
+    this far (metres) or turns it by 12° or more.
+    """
     check_choice(first_side, SIDES, "first_side")
     if not 0.0 < duty < 1.0:
         raise ValueError(f"duty: expected a value in (0, 1), got {duty}")
@@ -408,9 +417,22 @@ def _plan_footsteps(root_at, stop_time: float, *, initial: dict, first_side: str
         else:
             ankle_xy = xy + _SIGN[side] * half_width * _right(yaw) + forward_offset * _forward(yaw)
         ball = body.ball_from_ankle_xy(side, ankle_xy, yaw)
+        if min_gap is not None:
+            # Both the ball and the ankle keep to their side: a foot turned across the other
+            # (a pivot step) must not land on it.
+            other_side = "right" if side == "left" else "left"
+            other = stances[other_side][-1]
+            other_ankle = other.ball - (_rot_z(other.yaw) @ body.foot[other_side])[:2]
+            across = min(_SIGN[side] * float(np.dot(ball - other.ball, _right(yaw))),
+                         _SIGN[side] * float(np.dot(ankle_xy - other_ankle, _right(yaw))))
+            if across < min_gap:
+                ball = ball + min(min_gap - across, _TURNING_PUSH) * _SIGN[side] * _right(yaw)
         prev = stances[side][-1]
         turn = abs(float(_wrap(yaw - prev.yaw)))
-        if np.linalg.norm(ball - prev.ball) >= min_step or turn >= math.radians(6.0):
+        step_min, turn_min = min_step, math.radians(6.0)
+        if final and settle_step is not None:
+            step_min, turn_min = settle_step, math.radians(12.0)
+        if np.linalg.norm(ball - prev.ball) >= step_min or turn >= turn_min:
             prev.end = touch_down - swing
             stances[side].append(Footstep(side, touch_down, math.inf, ball, float(prev.yaw + _wrap(yaw - prev.yaw))))
         if final:
@@ -837,9 +859,71 @@ def _times(duration: float) -> np.ndarray:
     return np.arange(int(math.ceil(duration * FPS)) + 1) / FPS
 
 
+# Least distance across the heading between the balls (and the ankles) of the feet in turning
+# steps, metres, and the most a foot is pushed out to keep it.
+_TURNING_GAP = 0.12
+_TURNING_PUSH = 0.2
+# After turning steps, a foot already near its standing place stays (no shuffle to close up), m.
+_TURNING_SETTLE_STEP = 0.07
+# Turning steps: the fastest the body may move sideways while turned from its path, m/s; the
+# longest it may keep turning on the spot after the root has stopped (a short pivot), seconds.
+_TURNING_SIDE_SPEED = 0.45
+_TURNING_PIVOT = 0.5
+
+
+def _turning_time(angle: float) -> float:
+    """Seconds turning steps take to turn the body by ``angle`` radians (1.1 s for a quarter turn,
+    1.8 s for a half turn; a turn on the spot takes about as long)."""
+    return 0.5 + 0.4 * abs(angle)
+
+
+def _allowed_deviation(speed):
+    """Largest angle (radians, ``(...)``) between the heading and the direction of travel at ``speed``
+    (m/s): sideways at most ``_TURNING_SIDE_SPEED``, backwards only when slower still."""
+    speed = np.asarray(speed, dtype=np.float64)
+    side = np.arcsin(np.clip(_TURNING_SIDE_SPEED / np.maximum(speed, 1e-9), 0.0, 1.0))
+    slow = 0.5 * np.pi * (2.0 - np.clip(speed / _TURNING_SIDE_SPEED, 0.0, 1.0))
+    return np.where(speed > _TURNING_SIDE_SPEED, side, slow)
+
+
+def _turning_schedule(path: _Path, s_of_t, speed_of_t, stop: float, end_yaw: float):
+    """How far ``w(t)`` (0 → 1) the heading has blended from the path's direction into ``end_yaw``.
+
+    The blend is a smoothstep in time lasting ``_turning_time`` of the turn left when it starts
+    (a bend of the path included), ending at most ``_TURNING_PIVOT`` seconds after the root stops:
+    just late enough that the body never moves sideways faster than ``_TURNING_SIDE_SPEED`` while
+    turned from its path. Returns ``(w, end_time)`` with ``w`` a callable of time (seconds).
+    """
+    grid = np.arange(0.0, stop + _TURNING_PIVOT + 1e-9, 1.0 / (4 * FPS))
+    _, path_yaw = path.at(s_of_t(grid))
+    left = np.abs(end_yaw - path_yaw)
+    allowed = _allowed_deviation(speed_of_t(grid))
+    earliest = min(0.6, 0.5 * stop)
+    for pivot in np.arange(0.0, _TURNING_PIVOT + 1e-9, 0.05):
+        end = stop + pivot
+        duration = _turning_time(end_yaw - float(np.interp(end - _turning_time(np.pi), grid, path_yaw)))
+        for _ in range(3):
+            begin = max(end - duration, earliest)
+            duration = _turning_time(end_yaw - float(np.interp(begin, grid, path_yaw)))
+        begin = max(end - duration, earliest)
+        w = _smoothstep((grid - begin) / max(end - begin, 1e-6))
+        if np.all(w * left <= allowed + 1e-6):
+            break
+
+    def weight(t):
+        return _smoothstep((np.asarray(t, dtype=np.float64) - begin) / max(end - begin, 1e-6))
+
+    return weight, float(end)
+
+
 def _locomotion_segment(body: _Body, start, rng: np.random.Generator, *, gait: str, path: _Path,
-                        speed: Optional[float], settle_hold: float, meta: dict) -> Motion:
-    """Walk or run along ``path`` from ``start`` and stop with both feet planted."""
+                        speed: Optional[float], settle_hold: float, meta: dict,
+                        end_heading: Optional[float] = None) -> Motion:
+    """Walk or run along ``path`` from ``start`` and stop with both feet planted.
+
+    With ``end_heading`` the body turns to it over the last steps while the root finishes the
+    path (turning steps: the root's heading leaves the path's tangent as the walker slows down).
+    """
     params = GAITS[gait]
     style = _sample_style(rng, params)
     cruise = float(rng.uniform(*params.speed)) if speed is None else float(speed)
@@ -851,18 +935,31 @@ def _locomotion_segment(body: _Body, start, rng: np.random.Generator, *, gait: s
     step_period = step_length / cruise
     heading0 = path.heading[0]
     start_offset = float(_wrap(start_heading - heading0))
+    end_offset = 0.0 if end_heading is None else float(_wrap(float(end_heading) - path.heading[-1]))
+    end_yaw = float(path.heading[-1]) + end_offset
+    turning, still = None, stop
+    if end_offset != 0.0:
+        # Turning steps: the heading leaves the path's direction for ``end_heading`` as the
+        # walker slows down, finishing with a short pivot where the turn is large.
+        turning, still = _turning_schedule(path, s_of_t, speed_of_t, stop, end_yaw)
 
     def root_at(t):
         xy, yaw = path.at(s_of_t(t))
-        return xy, yaw + start_offset * (1.0 - _smoothstep(np.asarray(t) / 0.5))
+        t = np.asarray(t)
+        yaw = yaw + start_offset * (1.0 - _smoothstep(t / 0.5))
+        if turning is not None:
+            yaw = yaw + (end_yaw - yaw) * turning(t)
+        return xy, yaw
 
     first = "left" if rng.random() < 0.5 else "right"
-    steps = _plan_footsteps(root_at, stop, initial=feet, first_side=first, step_period=step_period,
+    steps = _plan_footsteps(root_at, still, initial=feet, first_side=first, step_period=step_period,
                             duty=params.duty, half_width=params.half_width, over_foot=params.over_foot,
-                            forward_offset=body.stand_ankle_forward, body=body)
+                            forward_offset=body.stand_ankle_forward, body=body,
+                            min_gap=None if turning is None else _TURNING_GAP,
+                            settle_step=None if turning is None else _TURNING_SETTLE_STEP)
     _assign_heel_off(steps, style.heel_off, step_length)
     last_touch = max([s.start for s in steps if math.isfinite(s.start)], default=0.0)
-    moving_end = max(stop, last_touch) + 0.25
+    moving_end = max(still, last_touch) + 0.25
     times = _times(moving_end + settle_hold)
     xy, yaw = root_at(times)
     envelope = np.clip(speed_of_t(times) / cruise, 0.0, 1.0)
@@ -870,6 +967,8 @@ def _locomotion_segment(body: _Body, start, rng: np.random.Generator, *, gait: s
     actions = np.where(times <= moving_end, action_id(gait), action_id("idle"))
     meta = {**meta, "gait": gait, "speed": cruise, "step_length": step_length,
             "cadence": 1.0 / step_period, "path_length": path.length}
+    if turning is not None:
+        meta.update(turning_steps=end_offset, pivot=still - stop)
     return _synthesize(body, root, steps, params, style, step_period, step_length, actions, start=start, meta=meta)
 
 
@@ -990,7 +1089,8 @@ def _last_pose(motion: Motion):
 
 @single_threaded
 def walk_path(waypoints, *, betas=None, seed=0, speed: Optional[float] = None, gait: str = "walk",
-              end_heading: Optional[float] = None, start=None, settle: bool = True) -> Motion:
+              end_heading: Optional[float] = None, start=None, settle: bool = True,
+              end_turn: str = "spot") -> Motion:
     """Walk (or run) along a smooth path through ground waypoints and stop standing.
 
     The root follows a centripetal Catmull-Rom curve through the waypoints at a cruise speed
@@ -998,8 +1098,13 @@ def walk_path(waypoints, *, betas=None, seed=0, speed: Optional[float] = None, g
     accelerating from and decelerating to a standstill and slowing down in tight bends (sideways
     acceleration at most 1.5 m/s² walking, 4 m/s² running). Step length grows with speed and the
     hip height; cadence is speed / step length. The clip ends with both feet planted, facing the
-    path's final direction, or ``end_heading`` after stepping round on the spot. A path shorter
-    than 15 cm is not walked (the character stands, turning to ``end_heading`` if given).
+    path's final direction, or ``end_heading``: after stepping round on the spot
+    (``end_turn="spot"``), or turning while arriving (``end_turn="steps"``: over the last second
+    or two of the walk, longer for larger turns, the heading leaves the path's direction for
+    ``end_heading`` as the walker slows down, never moving sideways faster than 0.45 m/s, so the
+    last steps are turning steps, ending with at most half a second of pivoting once the root
+    has stopped; the feet never cross). A path shorter than 15 cm is not walked (the character
+    stands, turning to ``end_heading`` on the spot if given).
 
     Args:
         waypoints: ``(K, 2)`` metres on the ground, ``K >= 2``; the first is the start (replaced
@@ -1015,11 +1120,13 @@ def walk_path(waypoints, *, betas=None, seed=0, speed: Optional[float] = None, g
             A start facing more than 25° away from the path first turns on the spot.
         settle: append half a second of standing still ("idle") at the end; without it the clip
             ends a quarter of a second after the last foot lands (or when the end turn is done).
+        end_turn: ``"spot"`` or ``"steps"``: how the walk turns to ``end_heading`` (see above).
     Returns:
         ``Motion`` at 30 fps labelled "walk"/"run" while moving, "turn" while turning on the
         spot, "idle" once settled; foot contacts in ``contacts[:, 1:3]``.
     """
     check_choice(gait, tuple(GAITS), "gait")
+    check_choice(end_turn, ("spot", "steps"), "end_turn")
     rng = _rng(seed)
     body = _Body(betas)
     start = _check_start(start)
@@ -1054,14 +1161,17 @@ def walk_path(waypoints, *, betas=None, seed=0, speed: Optional[float] = None, g
         path_pts = pts.copy()
         path_pts[0] = root_xy
         path = path_from_waypoints(path_pts)
+        stepping = end_heading is not None and end_turn == "steps"
         final_hold = hold if end_heading is None else 0.0
         parts.append(_locomotion_segment(body, state, rng, gait=gait, path=path, speed=speed,
-                                         settle_hold=final_hold, meta={"generator": "locomotion"}))
+                                         settle_hold=final_hold, meta={"generator": "locomotion"},
+                                         end_heading=end_heading if stepping else None))
         state = _last_pose(parts[-1])
     if end_heading is not None:
         _, _, heading_now = _state_of(body, state)
         angle = float(_wrap(float(end_heading) - heading_now))
-        if abs(angle) > math.radians(3):
+        # After turning steps only a turn the walk could not finish is done on the spot.
+        if abs(angle) > math.radians(10 if end_turn == "steps" and parts else 3):
             parts.append(_turn_segment(body, state, rng, angle, hold, {"generator": "turn_in_place"}))
             state = _last_pose(parts[-1])
         elif hold > 0:

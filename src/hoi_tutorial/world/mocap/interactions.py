@@ -9,7 +9,8 @@ grasping, opening cabinet doors and drawers).
 Every clip is built the way a procedural animation system builds one:
 
 1. an *approach*: ``gait.walk_path`` from a start at least 1.5 m away to a standing spot chosen
-   from the object's geometry (in front of a seat, facing a box, a handle or a small prop);
+   from the object's geometry (in front of a seat, facing a box, a handle or a small prop); a
+   sitter's last steps turn it round so it arrives with its back to the seat;
 2. a *plan* of the interaction, frame by frame: the pelvis position and orientation follow smooth
    (minimum-jerk) curves between key poses, the spine leans, the feet stay planted where the
    approach left them (or step along a footstep plan), and the hands get targets: object contact
@@ -671,12 +672,15 @@ def _path_clear(waypoints, obstacles, skip_end: float, trust_end: float, clearan
 
 # --------------------------------------------------------------------------- approach
 
-def _approach_waypoints(spot_xy, out_dir, rng, obstacles, start_position, centre_xy, sideways: bool):
+def _approach_waypoints(spot_xy, out_dir, rng, obstacles, start_position, centre_xy, sideways: bool,
+                        lane: float = 0.0):
     """Waypoints from a start at least 1.5 m from ``centre_xy`` to the standing spot ``spot_xy``.
 
     ``out_dir (3,)`` points from the spot away from the object: starts are drawn within ±75° of
     it. The walker arrives along ``-out_dir`` (facing the object), or, when ``sideways``, straight
-    from the start's side (a sitter then turns less to face away from the seat). A path that
+    from the start's side (a sitter then turns less to face away from the seat), along a lane
+    ``lane`` metres farther out than the spot that the last half metre leaves for the spot (the
+    turning steps of a sitter come in a little closer than a walking body may pass). A path that
     passes within 0.32 m of an obstacle gets a detour corner beside the object.
     """
     if start_position is not None:
@@ -694,13 +698,16 @@ def _approach_waypoints(spot_xy, out_dir, rng, obstacles, start_position, centre
         if not sideways:
             return [spot_xy + 0.5 * out_dir[:2]]
         # Along the object's front, from the start's side first: the final turn then swings the
-        # toes away from the object, never into it.
+        # toes away from the object, never into it. Where a straight lane is blocked (armrests),
+        # the last metre comes in at a slant from a little farther out.
         to_start = start - spot_xy
         side = 1.0 if out_dir[0] * to_start[1] - out_dir[1] * to_start[0] >= 0 else -1.0
-        return [spot_xy + 0.5 * (_rot_z(sign * np.pi / 2)[:2, :2] @ out_dir[:2]) for sign in (side, -side)]
+        return [spot_xy + across * (_rot_z(sign * np.pi / 2)[:2, :2] @ out_dir[:2]) + (lane + out) * out_dir[:2]
+                for sign in (side, -side) for across, out in ((0.5, 0.0), (0.55, 0.25))]
 
-    # Coming straight in, the last steps end on the spot that was checked for the walking body.
-    trust_end = 0.05 if sideways else 0.35
+    # Coming straight in, the last steps end on the spot that was checked for the walking body;
+    # turning steps that leave the lane are checked by the caller.
+    trust_end = (0.3 if lane > 0.0 else 0.05) if sideways else 0.35
     for start in candidates:
         for pre in pre_points(start):
             way = [start, pre, spot_xy]
@@ -824,8 +831,8 @@ def _sit_stand_distances(body: _Body, obj, goal, direction, rng) -> tuple[float,
 
     The standing spot keeps the body standing with its back to the seat (``_BACK_PROFILE``)
     clear of the object, yet near enough that the seated legs still reach the planted feet. The
-    walk passes along the object's front, so it ends where a walking body clears every part of
-    the object below 1.1 m; when that is farther, the sitter backs up to the seat in two steps.
+    walk passes along the object's front on a lane where a walking body clears every part of the
+    object below 1.1 m; its turning steps then come in to the standing spot (``_approach_seat``).
     Extents are measured along ``direction`` on a swath 0.4 m wide and every 3 cm of height.
     """
     heights = np.arange(0.02, 1.12, 0.03)
@@ -1130,7 +1137,8 @@ def _sit_sequence(body: _Body, obj, goal, direction, style, rng, start_root, ank
     cross_side = int(rng.integers(2))
     edge = _edge_goal(obj, goal, direction)
     deep = bool(np.linalg.norm(edge - goal) > 1e-9)
-    n_down = _frames(rng.uniform(1.1, 1.6))
+    # A brisk sit-down; onto a deep seat a shorter one, as the scoot back onto the goal follows.
+    n_down = _frames(rng.uniform(0.9, 1.2) if deep else rng.uniform(1.0, 1.5))
     lean_peak = math.radians(rng.uniform(22.0, 38.0))
     u = np.arange(n_down) / n_down
     feet_mid = 0.5 * (ankles[0] + ankles[1])
@@ -1142,7 +1150,7 @@ def _sit_sequence(body: _Body, obj, goal, direction, style, rng, start_root, ank
     seated_ankles = ankles if hanging is None else hanging
     if deep:
         seated_ankles = _raised_ankles(body, goal, heading)
-        n_scoot = _frames(rng.uniform(0.7, 1.0))
+        n_scoot = _frames(rng.uniform(0.5, 0.7))
         plans.append(_scoot_plan(np.arange(n_scoot) / n_scoot, edge, goal, heading, ankles, feet, seated_ankles,
                                  posture, style, cross_side, "sit_down"))
     settle = sum(len(p["root"]) for p in plans)
@@ -1176,8 +1184,22 @@ def _sit_sequence(body: _Body, obj, goal, direction, style, rng, start_root, ank
     return plans, info
 
 
+def _lowest_clearance(motion: Motion, obj, frames) -> float:
+    """Smallest signed distance (metres) from ``obj`` to the body surface over ``frames`` of ``motion``."""
+    from ..body import body_from_motion
+
+    vertices = body_from_motion(motion, frames).double().numpy().reshape(-1, 3)
+    return float(obj.sdf(vertices).min()) if len(vertices) else math.inf
+
+
 def _approach_seat(body: _Body, obj, goal, direction, rng, start_position, approach: bool):
-    """Walk to the front of a seat and, when the walk had to end farther out, back up to it.
+    """Walk to the front of a seat, arriving with the back to it, and (rarely) back up to it.
+
+    The walk passes along the seat's front, where a walking body clears the object, and its last
+    steps turn the walker to face away from the seat while they come in to the spot the sit-down
+    starts from (``gait.walk_path(..., end_turn="steps")``). When those turning steps would
+    brush the object, the walk ends on the walking body's lane instead and the sitter backs up to
+    the seat in two quick steps.
 
     Returns ``(walk or None, (local, root) at the walk's end, backing plans, (stand_root, ankles,
     feet, heading))`` with the last the state the sit-down starts from.
@@ -1185,15 +1207,37 @@ def _approach_seat(body: _Body, obj, goal, direction, rng, start_position, appro
     edge = _edge_goal(obj, goal, direction)
     seat_dist, walk_dist = _sit_stand_distances(body, obj, edge, direction, rng)
     heading = _heading_of(direction)
-    spot = edge[:2] + walk_dist * direction[:2]
-    walk, (local0, root0) = _approach(body, rng, spot, heading, direction, [obj], start_position, goal[:2], approach,
-                                      sideways=True)
+    spot = edge[:2] + seat_dist * direction[:2]
+    lane = max(walk_dist - seat_dist, 0.0)
+    back = 0.0
+    walk = None
+    if approach:
+        waypoints = _approach_waypoints(spot, direction, rng, [obj], start_position, goal[:2], True, lane=lane)
+        walk = gait.walk_path(waypoints, betas=body.betas, seed=rng, end_heading=heading, settle=False,
+                              end_turn="steps")
+        if lane > 0.03:
+            # The frames that leave the lane for the spot (the last 0.55 m of the walk) may come
+            # no closer than standing on the spot does (where the calves may touch a seat too
+            # high for the seated legs to reach farther), and never more than 1.5 cm into it.
+            near = np.linalg.norm(walk.root_position[:, :2].double().numpy() - spot[None], axis=-1) < 0.55
+            standing = _lowest_clearance(walk, obj, [len(walk) - 1])
+            limit = max(min(standing, 0.0) - 0.005, -0.015)
+            if _lowest_clearance(walk, obj, np.flatnonzero(near)) < limit:
+                back = lane
+                waypoints = waypoints.copy()
+                waypoints[-1] = waypoints[-1] + lane * direction[:2]
+                walk = gait.walk_path(waypoints, betas=body.betas, seed=rng, end_heading=heading, settle=False,
+                                      end_turn="steps")
+        local0, root0 = walk.local_rotations[-1].double().numpy(), walk.root_position[-1].double().numpy()
+    else:
+        local0, root0 = standing_pose(body.betas, position=spot, heading=heading)
+        local0, root0 = local0.double().numpy(), root0.double().numpy()
     ankles, feet, heading0 = _start_state(body, local0, root0)
     backing = []
-    if walk_dist - seat_dist > 0.03:
-        n_back = _frames(rng.uniform(0.8, 1.1))
-        plan, (root0_, ankles, feet) = _step_plan(n_back, root0, heading0, ankles, feet,
-                                                   -(walk_dist - seat_dist) * direction[:2], rng, "walk")
+    if back > 0.0:
+        n_back = _frames(rng.uniform(0.5, 0.7))
+        plan, (root0_, ankles, feet) = _step_plan(n_back, root0, heading0, ankles, feet, -back * direction[:2], rng,
+                                                   "walk")
         backing.append(plan)
         return walk, (local0, root0), backing, (root0_, ankles, feet, heading0)
     return walk, (local0, root0), backing, (root0, ankles, feet, heading0)
@@ -1205,9 +1249,12 @@ def sit(obj, *, betas=None, seed=0, style: Optional[str] = None, goal_index: Opt
     """Walk to a seat, sit down in a style, stay seated, optionally stand up and walk away.
 
     Sequence (SAMP §4.1): an approach walk from a start at least 1.5 m away (``start_position``
-    or sampled in front of the seat) to a spot in front of the sit goal, turning to face away
-    from the seat ("walk", "turn", "idle"); "sit_down": the pelvis lowers and moves back onto the
-    goal along a smooth curve while the torso leans forward and back and the feet stay planted;
+    or sampled in front of the seat) to a spot in front of the sit goal, whose last steps turn
+    the walker round to face away from the seat ("walk"; where those steps would brush the
+    object, the walk ends a few centimetres farther out and two quick steps back up to the seat);
+    "sit_down" (1–1.5 s; onto a deep seat 0.9–1.2 s and a scoot back): the pelvis lowers and
+    moves back onto the goal along a smooth curve while the torso leans forward and back and the
+    feet stay planted;
     "sit": settled, the style's motion (leaning back against the backrest, crossing the legs,
     hands on the knees or thighs) and breathing; "stand_up" (the sit-down curve in reverse) and a
     short walk away.
