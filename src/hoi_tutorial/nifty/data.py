@@ -101,9 +101,21 @@ def synthetic_data_config(action: str, scale: str = "toy", seed: int = 0) -> Syn
 
 
 def prior_training_clips(config: SyntheticDataConfig) -> list[Motion]:
-    """The toy mocap the prior is trained on (deterministic for the seed)."""
-    return mocap_module.generate_dataset(config.clips_per_kind, seed=config.seed,
-                                         kinds=PRIOR_MOCAP_KINDS, subjects=config.mocap_subjects)
+    """The toy mocap the prior is trained on (deterministic for the seed).
+
+    Generated once per process and configuration (the joint limits, the re-check and the
+    chapters ask for it repeatedly); the list is new at each call, the clips are shared, so
+    callers must not modify them.
+    """
+    key = (config.clips_per_kind, config.seed, config.mocap_subjects, PRIOR_MOCAP_KINDS)
+    if key not in _PRIOR_CLIPS:
+        _PRIOR_CLIPS.clear()  # keep one configuration: a few MB
+        _PRIOR_CLIPS[key] = mocap_module.generate_dataset(config.clips_per_kind, seed=config.seed,
+                                                          kinds=PRIOR_MOCAP_KINDS, subjects=config.mocap_subjects)
+    return list(_PRIOR_CLIPS[key])
+
+
+_PRIOR_CLIPS: dict = {}
 
 
 def trained_prior(config: SyntheticDataConfig, device: str = "cpu", progress: bool = True):
@@ -237,40 +249,50 @@ def recheck_sequences(dataset: SyntheticDataset, sequences=None) -> torch.Tensor
 
     A sequence of ``1 + d * F`` frames is reversed and cut after the anchor frame into ``d``
     nodes of ``F`` frames; each node is checked against the anchor's own penetration depth with
-    the same thresholds and joint limits. Returns ``(N,)`` bool: every node of the sequence passes.
+    the same thresholds and joint limits. A node shared by several paths of a tree (same anchor,
+    same frames) is checked once. Returns ``(N,)`` bool: every node of the sequence passes.
     """
     sequences = dataset.sequences if sequences is None else sequences
     config = dataset.config
     limits = joint_limits_from(prior_training_clips(config))
     prune = dataclasses.replace(config.prune, joint_limits=limits)
     F = config.tree.frames_per_node
-    rots, roots, joints, betas, objects, depths, owner = [], [], [], [], [], [], []
+    rots, roots, joints, betas, objects, depths = [], [], [], [], [], []
     penetration = {}
-    for s, seq in enumerate(sequences):
+    node_of = {}  # paths of one tree share their first nodes: each distinct node is checked once
+    owners = []  # per sequence, the indices of its nodes
+    for seq in sequences:
         rev = seq.motion.reversed()
         depth = (len(rev) - 1) // F
         if depth * F + 1 != len(rev):
             raise ValueError(f"sequence of {len(rev)} frames is not 1 + depth x {F}")
-        idx = torch.arange(1, 1 + depth * F).reshape(depth, F)
         key = id(seq.anchor)
         if key not in penetration:
             penetration[key] = rollout.anchor_penetration(seq.anchor)
-        rots.append(rev.local_rotations[idx])
-        roots.append(rev.root_position[idx])
-        joints.append(rev.joints[idx])
-        betas.append(seq.motion.betas[None].expand(depth, -1))
-        objects += [seq.obj] * depth
-        depths += [penetration[key]] * depth
-        owner += [s] * depth
-    if not owner:
-        return torch.zeros(0, dtype=torch.bool)
-    rots, roots, joints, betas = torch.cat(rots), torch.cat(roots), torch.cat(joints), torch.cat(betas)
-    depths, owner = torch.tensor(depths), torch.tensor(owner)
-    valid = torch.empty(len(owner), dtype=torch.bool)
-    for start in range(0, len(owner), 256):  # every node, in batches
+        rev_rots, rev_roots, rev_joints = rev.local_rotations, rev.root_position, None
+        nodes = []
+        for d in range(depth):
+            sl = slice(1 + d * F, 1 + (d + 1) * F)
+            # A node is identified by its anchor and its frames (root path and last pose).
+            identity = (key, id(seq.obj), rev_roots[sl].numpy().tobytes(), rev_rots[sl.stop - 1].numpy().tobytes())
+            if identity not in node_of:
+                rev_joints = rev.joints if rev_joints is None else rev_joints
+                node_of[identity] = len(rots)
+                rots.append(rev_rots[sl])
+                roots.append(rev_roots[sl])
+                joints.append(rev_joints[sl])
+                betas.append(seq.motion.betas)
+                objects.append(seq.obj)
+                depths.append(penetration[key])
+            nodes.append(node_of[identity])
+        owners.append(nodes)
+    if not rots:
+        return torch.ones(len(sequences), dtype=torch.bool)  # no nodes: nothing fails
+    rots, roots, joints, betas = torch.stack(rots), torch.stack(roots), torch.stack(joints), torch.stack(betas)
+    depths = torch.tensor(depths)
+    valid = torch.empty(len(rots), dtype=torch.bool)
+    for start in range(0, len(rots), 256):  # every distinct node, in batches
         sl = slice(start, start + 256)
         segment = motion_prior.PoseTrack(rots[sl], roots[sl], joints[sl])
         valid[sl] = rollout.prune_check(segment, betas[sl], objects[sl], depths[sl], prune)["valid"]
-    ok = torch.ones(len(sequences), dtype=torch.bool)
-    ok.index_put_((owner[~valid],), torch.tensor(False))
-    return ok
+    return torch.tensor([bool(valid[nodes].all()) for nodes in owners], dtype=torch.bool)
