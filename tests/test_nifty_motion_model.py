@@ -326,3 +326,13 @@ def test_trained_model_is_cached(tmp_cache, sit_records):
     assert not torch.equal(model.state_std, torch.ones(NIFTY_STATE_SIZE))  # statistics travel with the weights
     with pytest.raises(ValueError, match="action"):
         trained_motion_model(dataset, motion_model_config("lift", "toy"), progress=False)
+
+
+def test_model_code_covers_the_data_pipeline_and_the_toy_world():
+    """A change to the mocap, the objects or the data pipeline must retrain the model (cache key)."""
+    import hoi_tutorial.world as world
+    from hoi_tutorial.nifty import data, motion_model, motion_prior, rollout
+
+    code = motion_model.model_code()
+    for module in (world, data, motion_prior, rollout, motion_model):
+        assert module in code

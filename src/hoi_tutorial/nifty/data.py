@@ -22,6 +22,7 @@ import torch
 
 from .._validate import check_choice
 from ..infra import by_scale, load_or_build, state_dict_to_cpu
+from .. import world as world_module
 from ..world import mocap as mocap_module
 from ..world.motion import FPS, Motion, action_id
 from . import anchors as anchors_module
@@ -132,7 +133,7 @@ def trained_prior(config: SyntheticDataConfig, device: str = "cpu", progress: bo
 
     key = {"clips_per_kind": config.clips_per_kind, "mocap_subjects": config.mocap_subjects,
            "prior": dataclasses.asdict(config.prior), "seed": config.seed, "kinds": PRIOR_MOCAP_KINDS}
-    artifact = load_or_build("nifty_reverse_prior", key, build, code=(motion_prior, mocap_module))
+    artifact = load_or_build("nifty_reverse_prior", key, build, code=(motion_prior, world_module))
     model = ReversePrior(config.prior)
     model.load_state_dict(artifact["state"])
     info = {k: v for k, v in artifact.items() if k != "state"}
@@ -198,7 +199,7 @@ def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool 
 
     key = {"config": dataclasses.asdict(config)}
     payload = load_or_build(f"nifty_{config.action}_rollouts", key, build,
-                            code=(motion_prior, rollout, anchors_module, mocap_module))
+                            code=(motion_prior, rollout, anchors_module, world_module))
     action = action_id(config.action)
     all_paths = []
     for rots, roots, a, d in zip(payload["local_rotations"], payload["root_position"], payload["anchor"], payload["depth"]):

@@ -53,7 +53,7 @@ from ..nn.cvae import MLP
 from ..nn.diffusion import NoiseSchedule, classifier_free_x0, cosine_schedule, sample, training_loss
 from ..nn.pointnet import PointNetEncoder
 from ..nn.transformer import TransformerDenoiser
-from ..world import features as features_module
+from .. import world as world_module
 from ..world.features import (NIFTY_STATE_SIZE, canonical_transform, motion_from_nifty_state, nifty_pose_state,
                               root_frame)
 from ..world.motion import Motion
@@ -496,9 +496,10 @@ def train_motion_model(tensors: InteractionTensors, config: MotionModelConfig, d
 
 
 def model_code() -> tuple:
-    """The modules a trained motion model depends on (its data pipeline included): its cache key's code."""
+    """The code a trained motion model depends on, its data pipeline and the toy world included (its
+    cache key's code: a change to any of it retrains the model)."""
     return (sys.modules[__name__], diffusion_module, transformer_module, pointnet_module, cvae_module,
-            features_module, data_module, rollout_module, prior_module, anchors_module)
+            world_module, data_module, rollout_module, prior_module, anchors_module)
 
 
 def trained_motion_model(dataset, config: MotionModelConfig, device="cpu", progress: bool = True):
