@@ -515,3 +515,47 @@ def test_format_seconds():
     assert format_seconds(3720) == "1 h 02 min"
     with pytest.raises(ValueError):
         format_seconds(-1)
+
+
+def _build_square(name, value):
+    # Module-level so that a worker process can unpickle it.
+    return load_or_build(name, {"value": value}, lambda: torch.tensor(value) ** 2, verbose=False)
+
+
+def test_cache_only_loads_or_raises(isolated_cache):
+    from hoi_tutorial.infra import NotCachedError, cache_only
+
+    with cache_only():
+        with pytest.raises(NotCachedError, match="square"):
+            _build_square("square", 3.0)
+    assert not list(isolated_cache.glob("square-*.pt")) if isolated_cache.exists() else True
+    _build_square("square", 3.0)
+    with cache_only():
+        assert float(_build_square("square", 3.0)) == 9.0
+
+
+def test_warm_cache_builds_missing_artifacts_in_parallel(isolated_cache):
+    import functools
+
+    from hoi_tutorial.infra import warm_cache
+
+    calls = [functools.partial(_build_square, f"square{i}", float(i)) for i in range(3)]
+    warm_cache(calls, workers=2)
+    for i in range(3):
+        assert len(list(isolated_cache.glob(f"square{i}-*.pt"))) == 1
+    # Everything cached: nothing is built again (the files are untouched).
+    stamps = {p: p.stat().st_mtime_ns for p in isolated_cache.glob("*.pt")}
+    warm_cache(calls, workers=2)
+    assert {p: p.stat().st_mtime_ns for p in isolated_cache.glob("*.pt")} == stamps
+
+
+def test_warm_cache_rejects_what_it_cannot_run(isolated_cache):
+    from hoi_tutorial.infra import warm_cache
+
+    with pytest.raises(TypeError, match="callable"):
+        warm_cache([3])
+    with pytest.raises(ValueError, match="workers"):
+        warm_cache([], workers=0)
+    local = [lambda: _build_square("a", 1.0), lambda: _build_square("b", 2.0)]
+    with pytest.raises(TypeError, match="picklable"):
+        warm_cache(local, workers=2)

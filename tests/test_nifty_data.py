@@ -214,3 +214,44 @@ def test_prior_training_does_not_depend_on_the_global_rng(walk):
     second, _ = mp.train_reverse_prior([walk], config, progress=False)
     for a, b in zip(first.state_dict().values(), second.state_dict().values()):
         assert torch.equal(a, b)
+
+
+def test_prune_check_flags_a_sliding_planted_foot(walk):
+    # A standing pose dragged across the floor at 1 m/s: the toes rest on the ground and slide.
+    local, root = standing_pose()
+    F = 30
+    rots = local[None, None].repeat(2, F, 1, 1, 1)
+    roots = root[None, None].repeat(2, F, 1).clone()
+    roots[1, :, 0] += torch.arange(F, dtype=roots.dtype) / 30.0
+    _, joints = forward_kinematics(rots, roots, bone_offsets(None))
+    seg = mp.PoseTrack(rots, roots, joints)
+    far = make_object("box", seed=0).placed(20.0, 20.0, 0.0)
+    limit = ro.skating_limit_from([walk])
+    config = ro.PruneConfig(skating=limit, stationary=-1.0)
+    checks = ro.prune_check(seg, torch.zeros(2, 10), [far] * 2, torch.zeros(2), config)
+    assert checks["skating"].tolist() == [False, True]
+    # Without a limit the check is off.
+    assert not ro.prune_check(seg, torch.zeros(2, 10), [far] * 2, torch.zeros(2),
+                              ro.PruneConfig(stationary=-1.0))["skating"].any()
+
+
+def test_skating_limit_is_the_worst_window_of_the_data(walk):
+    from hoi_tutorial import metrics
+    from hoi_tutorial.world import body
+
+    limit = ro.skating_limit_from([walk], frames=30)
+    windows = [max(float(metrics.foot_skating(body.toe_positions(walk.slice(s, s + 30), side)))
+                   for side in ("right", "left")) for s in range(0, len(walk) - 29, 30)]
+    assert limit == pytest.approx(max(windows))
+    assert limit > 0.0
+    # Every node-long window of the data itself passes a check with that limit.
+    far = make_object("box", seed=0).placed(20.0, 20.0, 0.0)
+    for s in range(0, len(walk) - 29, 30):
+        seg = mp.PoseTrack(walk.local_rotations[None, s:s + 30], walk.root_position[None, s:s + 30],
+                           walk.joints[None, s:s + 30])
+        checks = ro.prune_check(seg, walk.betas[None], [far], torch.zeros(1), ro.PruneConfig(skating=limit))
+        assert not bool(checks["skating"][0])
+    with pytest.raises(ValueError, match="frames"):
+        ro.skating_limit_from([walk], frames=1)
+    with pytest.raises(ValueError, match="at least one"):
+        ro.skating_limit_from([])

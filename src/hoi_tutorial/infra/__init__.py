@@ -2,14 +2,17 @@
 cache, a model-agnostic training loop and paper-vs-ours tables."""
 from .cache import (
     CorruptArtifactWarning,
+    NotCachedError,
     artifact_key,
     artifact_path,
     cache_dir,
+    cache_only,
     clear_cache,
     load_or_build,
     state_dict_to_cpu,
 )
 from .device import choose_device, one_thread, single_threaded
+from .parallel import available_cores, warm_cache
 from .presets import SCALES, ScalePreset, by_scale, check_scale, preset
 from .seeding import check_seed, rng, seed_everything
 from .tables import format_seconds, side_by_side
@@ -18,8 +21,8 @@ from .training import TrainerConfig, TrainResult, learning_rate_factor, move_to_
 __all__ = [
     "SCALES", "ScalePreset", "by_scale", "check_scale", "preset",
     "check_seed", "rng", "seed_everything",
-    "choose_device", "one_thread", "single_threaded",
-    "CorruptArtifactWarning", "artifact_key", "artifact_path", "cache_dir", "clear_cache",
+    "choose_device", "one_thread", "single_threaded", "available_cores", "warm_cache",
+    "CorruptArtifactWarning", "NotCachedError", "cache_only", "artifact_key", "artifact_path", "cache_dir", "clear_cache",
     "load_or_build", "state_dict_to_cpu",
     "TrainerConfig", "TrainResult", "learning_rate_factor", "move_to_device", "train",
     "format_seconds", "side_by_side",

@@ -41,6 +41,7 @@ import os
 import pathlib
 import re
 import tempfile
+import threading
 import time
 import types
 import warnings
@@ -52,6 +53,8 @@ import torch
 
 __all__ = [
     "CorruptArtifactWarning",
+    "NotCachedError",
+    "cache_only",
     "cache_dir",
     "artifact_key",
     "artifact_path",
@@ -64,6 +67,25 @@ FORMAT = 1
 _NUMPY_TAG = "__hoi_numpy__"
 _NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,99}$")
 _PRIMITIVES = (bool, int, float, str, bytes, type(None))
+
+
+class NotCachedError(LookupError):
+    """Raised by :func:`load_or_build` inside :func:`cache_only` when an artifact would be built."""
+
+
+_CACHE_ONLY = threading.local()
+
+
+@contextlib.contextmanager
+def cache_only():
+    """Inside the block, :func:`load_or_build` loads what is cached and raises
+    :class:`NotCachedError` instead of building anything (used to find out which builds remain)."""
+    previous = getattr(_CACHE_ONLY, "active", False)
+    _CACHE_ONLY.active = True
+    try:
+        yield
+    finally:
+        _CACHE_ONLY.active = previous
 
 
 class CorruptArtifactWarning(UserWarning):
@@ -380,6 +402,8 @@ def load_or_build(name: str, config, build: Callable[[], Any], code: Iterable = 
             return artifact
         warnings.warn(f"rebuilding corrupt artifact {path} ({reason})", CorruptArtifactWarning,
                       stacklevel=2)
+    if getattr(_CACHE_ONLY, "active", False):
+        raise NotCachedError(f"artifact {name!r} is not cached (key {key[:16]})")
     if verbose:
         print(f"[cache] building {name} ...")
     start = time.perf_counter()

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
 import torch
@@ -30,13 +31,14 @@ from . import motion_prior, rollout
 from .anchors import Anchor, collect_anchors
 from .motion_prior import PriorConfig, ReversePrior, train_reverse_prior
 from .rollout import (InteractionSequence, PruneConfig, TreeConfig, grow_trees, joint_limits_from,
-                      start_distance)
+                      skating_limit_from, start_distance)
 
 __all__ = [
     "PRIOR_MOCAP_KINDS",
     "SyntheticDataConfig",
     "synthetic_data_config",
     "prior_training_clips",
+    "prune_settings",
     "trained_prior",
     "SyntheticDataset",
     "synthesize",
@@ -62,7 +64,11 @@ class SyntheticDataConfig:
         anchors_per_subject: anchors per subject (NIFTY: ~25 sitting, ~10 lifting).
         prior: the prior's sizes and training settings.
         tree: Algorithm 1's settings.
-        prune: PruneCheck thresholds (the joint limits are derived from the mocap).
+        prune: PruneCheck thresholds (the joint limits are derived from the mocap, see
+            :func:`prune_settings`).
+        check_skating: PruneCheck also rejects nodes whose feet skate more than the mocap's worst
+            second (our addition to NIFTY's checks, see ``rollout.PruneConfig.skating``). Off in
+            every preset: at toy scale it removes every sitting path (chapter 3 measures it).
         seed: base seed.
     """
 
@@ -74,6 +80,7 @@ class SyntheticDataConfig:
     prior: PriorConfig = field(default_factory=PriorConfig)
     tree: TreeConfig = field(default_factory=TreeConfig)
     prune: PruneConfig = field(default_factory=PruneConfig)
+    check_skating: bool = False
     seed: int = 0
 
 
@@ -117,6 +124,21 @@ def prior_training_clips(config: SyntheticDataConfig) -> list[Motion]:
 
 
 _PRIOR_CLIPS: dict = {}
+
+
+def prune_settings(config: SyntheticDataConfig, check_skating: Optional[bool] = None) -> PruneConfig:
+    """PruneCheck's thresholds with the limits read off the prior's mocap: the joint rotation limits
+    (``rollout.joint_limits_from``) and, when skating is checked, the worst foot skating of a
+    node-long window (``rollout.skating_limit_from``).
+
+    Args:
+        config: the dataset's configuration.
+        check_skating: override ``config.check_skating`` (e.g. to re-check a dataset more strictly).
+    """
+    clips = prior_training_clips(config)
+    check_skating = config.check_skating if check_skating is None else bool(check_skating)
+    skating = skating_limit_from(clips, config.tree.frames_per_node) if check_skating else None
+    return dataclasses.replace(config.prune, joint_limits=joint_limits_from(clips), skating=skating)
 
 
 def trained_prior(config: SyntheticDataConfig, device: str = "cpu", progress: bool = True):
@@ -191,8 +213,7 @@ def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool 
     anchors = collect_anchors(config.action, config.n_subjects, config.anchors_per_subject, config.seed)
 
     def build():
-        limits = joint_limits_from(prior_training_clips(config))
-        prune = dataclasses.replace(config.prune, joint_limits=limits)
+        prune = prune_settings(config)
         generator = torch.Generator().manual_seed(config.seed)
         trees = grow_trees(prior, anchors, generator, config.tree, prune)
         return _paths_payload(trees)
@@ -245,18 +266,22 @@ def failure_counts(dataset: SyntheticDataset) -> dict:
     return counts
 
 
-def recheck_sequences(dataset: SyntheticDataset, sequences=None) -> torch.Tensor:
+def recheck_sequences(dataset: SyntheticDataset, sequences=None, prune: Optional[PruneConfig] = None) -> torch.Tensor:
     """Run PruneCheck again on every node of every sequence, as the trees saw them.
 
     A sequence of ``1 + d * F`` frames is reversed and cut after the anchor frame into ``d``
     nodes of ``F`` frames; each node is checked against the anchor's own penetration depth with
     the same thresholds and joint limits. A node shared by several paths of a tree (same anchor,
     same frames) is checked once. Returns ``(N,)`` bool: every node of the sequence passes.
+
+    Args:
+        dataset: the synthetic dataset.
+        sequences: the sequences to check (default: ``dataset.sequences``).
+        prune: thresholds (default: the dataset's own, :func:`prune_settings`).
     """
     sequences = dataset.sequences if sequences is None else sequences
     config = dataset.config
-    limits = joint_limits_from(prior_training_clips(config))
-    prune = dataclasses.replace(config.prune, joint_limits=limits)
+    prune = prune_settings(config) if prune is None else prune
     F = config.tree.frames_per_node
     rots, roots, joints, betas, objects, depths = [], [], [], [], [], []
     penetration = {}

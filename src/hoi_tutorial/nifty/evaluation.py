@@ -42,6 +42,7 @@ from ..world import body as body_module
 from ..world.features import NIFTY_STATE_LAYOUT, canonicalize
 from ..world.mocap import generate_clip
 from ..world.motion import Motion
+from . import data as data_module
 from . import motion_model as mm
 from .motion_model import anchor_skeleton_distance, final_pelvis_distance
 
@@ -51,6 +52,7 @@ __all__ = [
     "scene_distance_range",
     "EvaluationConfig",
     "evaluate_motion_model",
+    "build_evaluation",
     "APPROACH_QUANTILE",
     "approach_length",
     "evaluate_motions",
@@ -421,3 +423,18 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
         motions = [s.motion for s in training] if name == "data" else _payload_motions(part, betas[name])
         result[name] = {"motions": motions, "metrics": part["metrics"]}
     return result
+
+
+def build_evaluation(data_config, model_config, config: Optional[EvaluationConfig] = None, device="cpu") -> None:
+    """Every artifact :func:`evaluate_motion_model` needs for one action: the synthetic data, the
+    trained motion model and its evaluation, built or loaded (for ``infra.warm_cache``, which
+    builds the two actions at once).
+
+    Args:
+        data_config: a ``nifty.data.SyntheticDataConfig``.
+        model_config: a ``nifty.motion_model.MotionModelConfig`` for the same action.
+        config: an :class:`EvaluationConfig`.
+        device: where to train and sample.
+    """
+    dataset = data_module.synthesize(data_config, device=device, progress=False)
+    evaluate_motion_model(dataset, model_config, config, device=device)

@@ -343,6 +343,11 @@ def train_reverse_prior(motions: Sequence[Motion], config: Optional[PriorConfig]
     ``own_prediction_max``; one coin per step for the batch) the next input is the detached
     prediction instead of the ground truth.
 
+    Each batch is computed in two passes: the inputs of the window's steps in time order without
+    gradients (only the scheduled-sampling steps need the model), then all ``W`` steps at once with
+    gradients. The loss is the one of stepping through the window with gradients, at a fraction of
+    the autograd overhead.
+
     Returns ``(model, TrainResult)``.
     """
     config = config or PriorConfig()
@@ -370,30 +375,48 @@ def train_reverse_prior(motions: Sequence[Motion], config: Optional[PriorConfig]
         kl_w = config.kl_weight * min(1.0, step / third)
         p_own = 0.0 if step < third else config.own_prediction_max * min(1.0, (step - third) / third)
         offsets = batch["offsets"]
+        own = batch["coins"] < p_own  # (W,) one coin per step for the whole batch
+        # Pass 1, in time order and without gradients: the input of every step. Scheduled sampling
+        # replaces the next input by the model's own detached prediction, the same value pass 2
+        # computes again with gradients (same weights, noise and latent draws).
+        prevs, curs = [], []
         prev, cur = _window_track(batch, 0), _window_track(batch, 1)
-        rec_total, kl_total = 0.0, 0.0
-        for t in range(1, W + 1):
-            nxt = _window_track(batch, t + 1)
-            with torch.no_grad():
-                x = heading_state(prev, cur)
-                y = step_target(cur, nxt)
-            xn = model.normalise_state(x) + config.input_noise * batch["noise"][t - 1]
-            yn = (y - model.y_mean) / model.y_std
-            mu_q, logvar_q = model.encode(xn, yn)
-            mu_p, logvar_p = model.prior(xn)
-            z = mu_q + torch.exp(0.5 * logvar_q) * batch["eps"][t - 1]
-            yn_hat = model.decode(xn, z)
-            # HuMoR also supervises joint positions; the legs' carry the ground contact.
-            legs_hat = leg_joint_positions(yn_hat * model.y_std + model.y_mean, cur, offsets)
-            legs = leg_joint_positions(y, cur, offsets)
-            rec_total = rec_total + (yn_hat - yn).square().mean() + config.leg_weight * (legs_hat - legs).square().sum(-1).mean()
-            kl_total = kl_total + gaussian_kl(mu_q, logvar_q, mu_p, logvar_p).mean()
-            if bool(batch["coins"][t - 1] < p_own):
-                # Scheduled sampling: continue from the model's own (detached) prediction.
-                with torch.no_grad():
-                    nxt = apply_step(cur, yn_hat.detach() * model.y_std + model.y_mean, offsets)
-            prev, cur = cur, nxt
-        rec_total, kl_total = rec_total / W, kl_total / W
+        with torch.no_grad():
+            for t in range(1, W + 1):
+                prevs.append(prev)
+                curs.append(cur)
+                nxt = _window_track(batch, t + 1)
+                if bool(own[t - 1]):
+                    xn = model.normalise_state(heading_state(prev, cur)) + config.input_noise * batch["noise"][t - 1]
+                    yn = (step_target(cur, nxt) - model.y_mean) / model.y_std
+                    mu_q, logvar_q = model.encode(xn, yn)
+                    yn_hat = model.decode(xn, mu_q + torch.exp(0.5 * logvar_q) * batch["eps"][t - 1])
+                    nxt = apply_step(cur, yn_hat * model.y_std + model.y_mean, offsets)
+                prev, cur = cur, nxt
+
+        # Pass 2: all W steps as one batch of W·B with gradients; the target always leads to the
+        # ground-truth next frame.
+        def stacked(tracks):
+            return PoseTrack(*(torch.stack([getattr(tr, name) for tr in tracks]).flatten(0, 1)
+                               for name in ("local_rotations", "root_position", "joints")))
+
+        prev, cur = stacked(prevs), stacked(curs)
+        nxt = stacked([_window_track(batch, t + 1) for t in range(1, W + 1)])
+        offsets_all = offsets[None].expand(W, -1, -1, -1).flatten(0, 1)
+        with torch.no_grad():
+            x = heading_state(prev, cur)
+            y = step_target(cur, nxt)
+            legs = leg_joint_positions(y, cur, offsets_all)
+        xn = model.normalise_state(x) + config.input_noise * batch["noise"].flatten(0, 1)
+        yn = (y - model.y_mean) / model.y_std
+        mu_q, logvar_q = model.encode(xn, yn)
+        mu_p, logvar_p = model.prior(xn)
+        z = mu_q + torch.exp(0.5 * logvar_q) * batch["eps"].flatten(0, 1)
+        yn_hat = model.decode(xn, z)
+        # HuMoR also supervises joint positions; the legs' carry the ground contact.
+        legs_hat = leg_joint_positions(yn_hat * model.y_std + model.y_mean, cur, offsets_all)
+        rec_total = (yn_hat - yn).square().mean() + config.leg_weight * (legs_hat - legs).square().sum(-1).mean()
+        kl_total = gaussian_kl(mu_q, logvar_q, mu_p, logvar_p).mean()
         return rec_total + kl_w * kl_total, {"reconstruction": float(rec_total.detach()), "kl": float(kl_total.detach())}
 
     result = train(

@@ -52,6 +52,7 @@ __all__ = [
     "RIGHT_HEEL_VERTEX",
     "LEFT_HEEL_VERTEX",
     "HAND_VERTICES",
+    "toe_vertices",
     "capsule_local_segments",
     "capsule_segments",
     "body_vertices",
@@ -457,6 +458,19 @@ def body_from_motion(motion, frames=None) -> torch.Tensor:
     return body_vertices(rot, pos, motion.betas)
 
 
+def toe_vertices(global_rotations, joint_positions, betas=None) -> torch.Tensor:
+    """Both toe vertices of posed bodies (right, then left), without computing the other vertices.
+
+    Args:
+        global_rotations: ``(..., 22, 3, 3)`` world rotations of the joints.
+        joint_positions: ``(..., 22, 3)`` metres.
+        betas: ``(..., 10)`` or ``(10,)`` body shapes (default: the mean body).
+    Returns:
+        ``(..., 2, 3)`` metres: ``RIGHT_TOE_VERTEX`` and ``LEFT_TOE_VERTEX``.
+    """
+    return _vertices(global_rotations, joint_positions, betas, index=[RIGHT_TOE_VERTEX, LEFT_TOE_VERTEX])
+
+
 def toe_positions(motion, side: str = "right") -> torch.Tensor:
     """Trajectory of a toe vertex (the bottom of the toe tip), for NIFTY's foot-skating metric.
 
@@ -467,8 +481,7 @@ def toe_positions(motion, side: str = "right") -> torch.Tensor:
         ``(T, 3)`` metres.
     """
     check_choice(side, ("right", "left"), "side")
-    index = RIGHT_TOE_VERTEX if side == "right" else LEFT_TOE_VERTEX
-    return _vertices(motion.global_rotations, motion.joints, motion.betas, index=[index])[..., 0, :]
+    return toe_vertices(motion.global_rotations, motion.joints, motion.betas)[..., 0 if side == "right" else 1, :]
 
 
 def object_contact_vertices(motion_frame_vertices, object_sdf: Callable, threshold: float = 0.0) -> np.ndarray:

@@ -1,0 +1,93 @@
+"""Build independent artifacts at the same time, one per CPU core.
+
+A chapter often needs the same pipeline for two actions (sitting and lifting), each step of it on
+one thread (see :func:`~hoi_tutorial.infra.device.one_thread`). On a two-core machine the second
+core is idle. :func:`warm_cache` runs such independent builds at the same time, the extra ones in
+worker processes: each worker stores its artifacts in the cache and exits, and the caller then
+loads them as usual. A fresh process per build keeps the builds independent of each other (no
+shared random state, no shared thread pool), so the artifacts are the ones a sequential run makes.
+"""
+from __future__ import annotations
+
+import concurrent.futures
+import multiprocessing
+import os
+import pickle
+from typing import Callable, Optional, Sequence
+
+from .cache import NotCachedError, cache_only
+
+__all__ = ["available_cores", "warm_cache"]
+
+
+def available_cores() -> int:
+    """CPU cores this process may run on (its affinity where the system reports it)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # macOS and Windows have no affinity call
+        return os.cpu_count() or 1
+
+
+def _run(call: Callable[[], object]) -> None:
+    # In the worker: one torch thread, and the return value stays here (only the cache matters).
+    import torch
+
+    torch.set_num_threads(1)
+    call()
+
+
+def warm_cache(calls: Sequence[Callable[[], object]], workers: Optional[int] = None) -> None:
+    """Make sure the artifacts of independent builds are cached, building the missing ones in parallel.
+
+    Each call is first run here with :func:`~hoi_tutorial.infra.cache.cache_only`: if everything
+    it needs is cached it just loads, and is done. The calls that would build something run in
+    parallel: the first here, the others in worker processes (a fresh interpreter each), at most
+    ``workers`` at a time.
+
+    Args:
+        calls: zero-argument callables that build (or load) cached artifacts, e.g.
+            ``functools.partial(data.synthesize, config)``. They must be picklable: module-level
+            functions and partials of them, with picklable arguments. Their return values are
+            discarded; call them again afterwards to load what they cached.
+        workers: builds at once (default: the available cores). With one, the calls that build
+            run here, one after the other.
+
+    Calls must not depend on each other's artifacts (build shared ones first), and must not
+    build the same artifact (two workers would both build it).
+
+    Raises:
+        TypeError: when ``calls`` holds something that is not callable or cannot be pickled.
+        Whatever a call raises, re-raised here.
+    """
+    calls = list(calls)
+    for index, call in enumerate(calls):
+        if not callable(call):
+            raise TypeError(f"calls[{index}]: expected a callable, got {type(call).__name__}")
+    if workers is None:
+        workers = available_cores()
+    if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
+        raise ValueError(f"workers: expected a positive int, got {workers!r}")
+    missing = []
+    for call in calls:
+        try:
+            with cache_only():
+                call()
+        except NotCachedError:
+            missing.append(call)
+    if workers == 1 or len(missing) <= 1:
+        for call in missing:
+            call()
+        return
+    for call in missing[1:]:
+        try:
+            pickle.dumps(call)
+        except Exception as exc:  # noqa: BLE001 - any pickling failure means the same thing
+            raise TypeError(f"calls: expected picklable callables (module-level functions or "
+                            f"functools.partial of them), got {call!r}: {exc}") from exc
+    # "spawn": a fresh interpreter, never a fork of a process that already runs torch threads.
+    context = multiprocessing.get_context("spawn")
+    with concurrent.futures.ProcessPoolExecutor(max_workers=workers - 1, mp_context=context) as pool:
+        futures = [pool.submit(_run, call) for call in missing[1:]]
+        missing[0]()
+        for future in futures:
+            future.result()
