@@ -186,3 +186,20 @@ def test_evaluate_motion_model_samples_scores_and_caches(sit_case, tmp_cache):
     for name in ("scenes", "training"):
         np.testing.assert_array_equal(result[name]["metrics"]["d2o"], again[name]["metrics"]["d2o"])
         torch.testing.assert_close(result[name]["motions"][0].joints, again[name]["motions"][0].joints)
+
+
+def test_penetration_depths_match_the_full_body_sdf(sit_case):
+    # The bounding-box shortcut leaves every penetration depth exactly as the full body SDF gives it.
+    from hoi_tutorial.world import body
+
+    records, _ = sit_case
+    for record in records:
+        points = torch.as_tensor(np.asarray(record.obj.surface_points(2000, seed=0)))
+        fast = evaluation._penetration_per_frame(record.motion, points)
+        full = body.body_sdf(points.float(), record.motion.global_rotations.float(), record.motion.joints.float(),
+                             record.motion.betas.float()).numpy()
+        assert fast.shape == full.shape
+        np.testing.assert_array_equal(np.clip(-fast, 0.0, None), np.clip(-full, 0.0, None))
+        assert (np.clip(-full, 0.0, None) > 0).any()  # the seated body does reach into the chair
+        finite = np.isfinite(fast)
+        np.testing.assert_array_equal(fast[finite], full[finite])

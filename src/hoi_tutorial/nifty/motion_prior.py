@@ -223,7 +223,7 @@ class PriorConfig:
     kl_weight: float = 3e-3
     own_prediction_max: float = 0.5
     input_noise: float = 0.02
-    leg_weight: float = 100.0
+    leg_weight: float = 1000.0
     seed: int = 0
 
 

@@ -57,6 +57,7 @@ __all__ = [
     "capsule_segments",
     "body_vertices",
     "body_sdf",
+    "capsule_sdf",
     "body_mesh",
     "body_from_motion",
     "toe_positions",
@@ -399,6 +400,19 @@ def body_sdf(points, global_rotations, joint_positions, betas=None) -> torch.Ten
     points = as_tensor(points, "points")
     check_shape(points, (..., None, 3), "points")
     a, b, radius = capsule_segments(global_rotations, joint_positions, betas)
+    return capsule_sdf(points, a, b, radius)
+
+
+def capsule_sdf(points, a, b, radius) -> torch.Tensor:
+    """Signed distance to a union of capsules (segments ``a``–``b`` of radius ``radius``), negative inside.
+
+    Args:
+        points: ``(..., P, 3)`` query points, metres.
+        a, b: ``(..., C, 3)`` segment ends, metres (e.g. from :func:`capsule_segments`).
+        radius: ``(..., C)`` metres.
+    Returns:
+        ``(..., P)`` metres, in the promoted dtype of the points and the capsules.
+    """
     dtype = torch.promote_types(points.dtype, a.dtype)
     points = points.to(dtype)
     dist = _segment_distance(points[..., :, None, :], a[..., None, :, :].to(dtype), b[..., None, :, :].to(dtype))
