@@ -3,7 +3,7 @@ import pytest
 import torch
 
 from hoi_tutorial.nifty.anchors import Anchor
-from hoi_tutorial.nifty.data import SyntheticDataset, recheck_sequences, synthetic_data_config
+from hoi_tutorial.nifty.data import SyntheticDataset, recheck_failures, recheck_sequences, synthetic_data_config
 from hoi_tutorial.nifty.motion_prior import PoseTrack
 from hoi_tutorial.nifty.rollout import InteractionSequence
 from hoi_tutorial.world.mocap import generate_clip
@@ -45,6 +45,10 @@ def test_recheck_flags_only_the_sequences_with_a_bad_node(case):
     assert recheck_sequences(dataset).tolist() == [True, False, True]
     assert recheck_sequences(dataset, [bad]).tolist() == [False]
     assert recheck_sequences(dataset, []).shape == (0,)
+    # The reasons: only the sunk node fails, and only by sinking.
+    failures = recheck_failures(dataset)
+    assert failures["sinking"].tolist() == [False, True, False]
+    assert not any(flags.any() for reason, flags in failures.items() if reason != "sinking")
 
 
 def test_recheck_rejects_a_length_that_is_not_whole_nodes(case):

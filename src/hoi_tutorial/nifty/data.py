@@ -45,6 +45,7 @@ __all__ = [
     "survival_by_depth",
     "failure_counts",
     "recheck_sequences",
+    "recheck_failures",
 ]
 
 # What the scene-unaware prior learns from (NIFTY: AMASS without jumping/dancing): locomotion,
@@ -267,17 +268,29 @@ def failure_counts(dataset: SyntheticDataset) -> dict:
 
 
 def recheck_sequences(dataset: SyntheticDataset, sequences=None, prune: Optional[PruneConfig] = None) -> torch.Tensor:
+    """Run PruneCheck again on every node of every sequence: ``(N,)`` bool, every node passes.
+
+    See :func:`recheck_failures`, which says which checks fail.
+    """
+    failures = recheck_failures(dataset, sequences, prune)
+    return ~torch.stack(list(failures.values())).any(dim=0)
+
+
+def recheck_failures(dataset: SyntheticDataset, sequences=None, prune: Optional[PruneConfig] = None) -> dict:
     """Run PruneCheck again on every node of every sequence, as the trees saw them.
 
     A sequence of ``1 + d * F`` frames is reversed and cut after the anchor frame into ``d``
     nodes of ``F`` frames; each node is checked against the anchor's own penetration depth with
     the same thresholds and joint limits. A node shared by several paths of a tree (same anchor,
-    same frames) is checked once. Returns ``(N,)`` bool: every node of the sequence passes.
+    same frames) is checked once.
 
     Args:
         dataset: the synthetic dataset.
         sequences: the sequences to check (default: ``dataset.sequences``).
         prune: thresholds (default: the dataset's own, :func:`prune_settings`).
+    Returns:
+        ``{reason: (N,) bool}`` for every reason of ``rollout.PRUNE_REASONS``: some node of the
+        sequence fails that check.
     """
     sequences = dataset.sequences if sequences is None else sequences
     config = dataset.config
@@ -312,13 +325,16 @@ def recheck_sequences(dataset: SyntheticDataset, sequences=None, prune: Optional
                 depths.append(penetration[key])
             nodes.append(node_of[identity])
         owners.append(nodes)
-    if not rots:
-        return torch.ones(len(sequences), dtype=torch.bool)  # no nodes: nothing fails
+    if not rots:  # no nodes: nothing fails
+        return {reason: torch.zeros(len(sequences), dtype=torch.bool) for reason in rollout.PRUNE_REASONS}
     rots, roots, joints, betas = torch.stack(rots), torch.stack(roots), torch.stack(joints), torch.stack(betas)
     depths = torch.tensor(depths)
-    valid = torch.empty(len(rots), dtype=torch.bool)
+    fails = {reason: torch.empty(len(rots), dtype=torch.bool) for reason in rollout.PRUNE_REASONS}
     for start in range(0, len(rots), 256):  # every distinct node, in batches
         sl = slice(start, start + 256)
         segment = motion_prior.PoseTrack(rots[sl], roots[sl], joints[sl])
-        valid[sl] = rollout.prune_check(segment, betas[sl], objects[sl], depths[sl], prune)["valid"]
-    return torch.tensor([bool(valid[nodes].all()) for nodes in owners], dtype=torch.bool)
+        checks = rollout.prune_check(segment, betas[sl], objects[sl], depths[sl], prune)
+        for reason in rollout.PRUNE_REASONS:
+            fails[reason][sl] = checks[reason]
+    return {reason: torch.tensor([bool(flags[nodes].any()) for nodes in owners], dtype=torch.bool)
+            for reason, flags in fails.items()}
