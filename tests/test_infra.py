@@ -543,6 +543,8 @@ def test_warm_cache_builds_missing_artifacts_in_parallel(isolated_cache):
     warm_cache(calls, workers=2)
     for i in range(3):
         assert len(list(isolated_cache.glob(f"square{i}-*.pt"))) == 1
+        # What a worker cached is what this process builds.
+        assert float(_build_square(f"square{i}", float(i))) == float(i) ** 2
     # Everything cached: nothing is built again (the files are untouched).
     stamps = {p: p.stat().st_mtime_ns for p in isolated_cache.glob("*.pt")}
     warm_cache(calls, workers=2)

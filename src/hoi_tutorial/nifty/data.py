@@ -69,7 +69,8 @@ class SyntheticDataConfig:
             :func:`prune_settings`).
         check_skating: PruneCheck also rejects nodes whose feet skate more than the mocap's worst
             second (our addition to NIFTY's checks, see ``rollout.PruneConfig.skating``). Off in
-            every preset: at toy scale it removes every sitting path (chapter 3 measures it).
+            every preset: at toy scale it leaves few sitting paths (chapter 3 measures the share
+            of the kept sequences that would pass it).
         seed: base seed.
     """
 
