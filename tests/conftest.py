@@ -20,3 +20,13 @@ def tmp_cache(tmp_path, monkeypatch):
     cache_dir.mkdir()
     monkeypatch.setenv("HOI_CACHE", str(cache_dir))
     return cache_dir
+
+
+@pytest.fixture(scope="module")
+def one_cpu_thread():
+    """Run a module's tests on one torch thread (``infra.one_thread``): tiny models run fastest
+    there, and more threads stall when the cores are shared."""
+    from hoi_tutorial.infra import one_thread
+
+    with one_thread():
+        yield

@@ -9,6 +9,8 @@ from hypothesis import strategies as st
 
 from hoi_tutorial.nn import diffusion as dif
 from hoi_tutorial.nn.diffusion import (
+    sample_with_record,
+    train_denoiser,
     best_of_n,
     classifier_free_x0,
     cosine_schedule,
@@ -303,14 +305,16 @@ def test_sample_shape_determinism_and_trajectory():
     again = sample(x0_fn, (2, 4, 3), schedule, generator=torch.Generator().manual_seed(5))
     other = sample(x0_fn, (2, 4, 3), schedule, generator=torch.Generator().manual_seed(6))
     assert out.shape == (2, 4, 3) and torch.equal(out, again) and not torch.equal(out, other)
-    final, trajectory = sample(x0_fn, (2, 4, 3), schedule, generator=torch.Generator().manual_seed(5),
-                               return_trajectory=True)
+    record = sample_with_record(x0_fn, (2, 4, 3), schedule, generator=torch.Generator().manual_seed(5))
+    final = record.sample
     assert torch.equal(final, out)
-    assert trajectory["k"] == list(range(7, -1, -1))
-    assert len(trajectory["x_k"]) == len(trajectory["x0_hat"]) == 8
-    assert trajectory["objective"] == [None] * 8
+    assert record.k == list(range(7, -1, -1)) and record.at(7) == 0 and record.at(0) == 7
+    assert len(record.x_k) == len(record.x0_hat) == 8
+    assert record.objective == [None] * 8
     # no noise at the last step: the sample is the last clean prediction
-    assert torch.allclose(final, trajectory["x0_hat"][-1], atol=1e-6)
+    assert torch.allclose(final, record.x0_hat[-1], atol=1e-6)
+    with pytest.raises(ValueError, match="recorded steps"):
+        record.at(8)
 
 
 def test_guidance_steps_default_skips_the_last_step():
@@ -321,9 +325,9 @@ def test_guidance_steps_default_skips_the_last_step():
         seen.append(1)
         return x0_hat.pow(2).sum(-1)
 
-    _, traj = sample(lambda x, k: 0.5 * x, (3, 2), schedule, generator=torch.Generator().manual_seed(0),
-                     guidance=objective, alpha=0.1, return_trajectory=True)
-    assert len(seen) == 5 and traj["objective"][-1] is None and traj["objective"][0].shape == (3,)
+    traj = sample_with_record(lambda x, k: 0.5 * x, (3, 2), schedule, generator=torch.Generator().manual_seed(0),
+                              guidance=objective, alpha=0.1)
+    assert len(seen) == 5 and traj.objective[-1] is None and traj.objective[0].shape == (3,)
     seen.clear()
     sample(lambda x, k: 0.5 * x, (3, 2), schedule, generator=torch.Generator().manual_seed(0),
            guidance=objective, alpha=lambda k: 0.1 * k, guidance_steps=[5, 0])
@@ -408,3 +412,44 @@ def test_training_reduces_loss_for_a_tiny_denoiser():
         opt.step()
         losses.append(float(loss.detach()))
     assert sum(losses[-20:]) / 20 < 0.5 * sum(losses[:5]) / 5
+
+
+# --------------------------------------------------------------------------- the training helper
+
+
+def _tiny_denoiser(seed=0):
+    from hoi_tutorial.nn.denoisers import MLPDenoiser
+
+    torch.manual_seed(seed)
+    return MLPDenoiser(2, n_classes=3, width=16, depth=1, time_embed_dim=8, schedule=cosine_schedule(10))
+
+
+def test_train_denoiser_matches_a_hand_written_closure():
+    """The helper draws rows, then a per-step seed for k, noise and dropout: the same run as writing
+    the closure by hand around ``infra.train`` and ``training_loss``."""
+    from hoi_tutorial.infra import TrainerConfig, train
+
+    x0 = torch.randn(50, 2, generator=torch.Generator().manual_seed(1))
+    labels = torch.randint(0, 3, (50,), generator=torch.Generator().manual_seed(2))
+    schedule = cosine_schedule(10)
+    config = TrainerConfig(steps=12, batch_size=8, lr=1e-2, progress=False, seed=3)
+    ours = _tiny_denoiser()
+    result = train_denoiser(ours, x0, labels, schedule, config, p_uncond=0.3)
+
+    def sample_batch(step, generator):
+        index = torch.randint(0, 50, (8,), generator=generator)
+        return x0[index], labels[index], torch.randint(0, 2**62, (1,), generator=generator)
+
+    def loss_fn(net, batch):
+        generator = torch.Generator().manual_seed(int(batch[2]))
+        return training_loss(net, batch[0], batch[1], schedule, generator=generator, p_uncond=0.3)
+
+    reference = _tiny_denoiser()
+    expected = train(reference, sample_batch, loss_fn, config)
+    assert result.losses == expected.losses
+    for p, q in zip(ours.parameters(), reference.parameters()):
+        assert torch.equal(p, q)
+    with pytest.raises(ValueError, match="rows"):
+        train_denoiser(_tiny_denoiser(), x0, labels[:10], schedule, config)
+    with pytest.raises(ValueError, match="rows"):
+        train_denoiser(_tiny_denoiser(), x0, {"labels": labels[:10]}, schedule, config)

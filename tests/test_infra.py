@@ -13,6 +13,7 @@ from hoi_tutorial.infra import (
     SCALES,
     CorruptArtifactWarning,
     TrainerConfig,
+    trainer_config,
     artifact_key,
     by_scale,
     cache_dir,
@@ -22,7 +23,6 @@ from hoi_tutorial.infra import (
     format_seconds,
     learning_rate_factor,
     load_or_build,
-    preset,
     rng,
     seed_everything,
     side_by_side,
@@ -45,16 +45,6 @@ def test_by_scale_picks_the_matching_value():
     assert [by_scale(s, toy=1, small=2, paper=3) for s in SCALES] == [1, 2, 3]
     with pytest.raises(ValueError, match="scale"):
         by_scale("tiny", toy=1, small=2, paper=3)
-
-
-def test_preset_paper_values_are_niftys():
-    paper = preset("paper")
-    assert (paper.model_width, paper.model_layers, paper.diffusion_steps, paper.max_frames,
-            paper.eval_scenes, paper.batch_size) == (512, 8, 1000, 150, 500, 32)
-    toy = preset("toy")
-    assert toy.name == "toy" and toy.model_width < paper.model_width
-    with pytest.raises(dataclasses.FrozenInstanceError):
-        toy.model_width = 3
 
 
 # ---------------------------------------------------------------------------------- seeding
@@ -463,6 +453,36 @@ def test_trainer_errors_and_callbacks():
         TrainerConfig(optimizer="sgd")
     with pytest.raises(ValueError, match="steps"):
         TrainerConfig(steps=0)
+
+
+def test_losses_read_back_at_an_interval_are_the_per_step_losses():
+    sample_batch, loss_fn = _regression_problem()
+    every = train(torch.nn.Linear(3, 1), sample_batch, loss_fn,
+                  TrainerConfig(steps=23, device="cpu", progress=False, log_every=1))
+    interval = train(torch.nn.Linear(3, 1), sample_batch, loss_fn,
+                     TrainerConfig(steps=23, device="cpu", progress=False, log_every=10))
+    assert len(interval.losses) == 23 and interval.losses == every.losses
+
+
+def test_trainer_config_reads_a_component_config():
+    import dataclasses
+
+    @dataclasses.dataclass(frozen=True)
+    class Component:
+        width: int = 8
+        steps: int = 40
+        lr: float = 5e-3
+        warmup_steps: int = 100
+        lr_schedule: str = "cosine"
+        seed: int = 7
+
+    config = trainer_config(Component(), device="cpu")
+    assert (config.steps, config.lr, config.lr_schedule, config.seed) == (40, 5e-3, "cosine", 7)
+    assert config.warmup_steps == 40  # cut to the run's length
+    assert config.batch_size == TrainerConfig().batch_size and not config.progress
+    assert trainer_config(Component(), batch_size=4).batch_size == 4
+    with pytest.raises(TypeError, match="steps"):
+        trainer_config({"steps": 3})
 
 
 def test_learning_rate_schedules():

@@ -88,13 +88,13 @@ def test_a_motion_ending_in_its_anchor_scores_like_the_data(sit_case):
     records, anchors = sit_case
     scores = evaluation.evaluate_motions([r.motion for r in records], [r.obj for r in records], anchors,
                                          n_approach=30, n_object_points=500)
-    np.testing.assert_allclose(scores["skeleton_distance"], 0.0, atol=1e-9)
-    assert scores["nearest_anchor"].tolist() == [0, 1]
-    np.testing.assert_allclose(scores["contact_iou"], 1.0)
-    assert (scores["d2o"] <= 0.02).all()  # seated: the body touches the seat
-    assert np.isfinite(scores["penetration"]).all()  # reached, so the approach is scored
-    assert (scores["final_distance"] < scores["start_distance"]).all()
-    assert (scores["foot_skating"] >= 0).all()
+    np.testing.assert_allclose(scores.skeleton_distance, 0.0, atol=1e-9)
+    assert scores.nearest_anchor.tolist() == [0, 1]
+    np.testing.assert_allclose(scores.contact_iou, 1.0)
+    assert (scores.d2o <= 0.02).all()  # seated: the body touches the seat
+    assert np.isfinite(scores.penetration).all()  # reached, so the approach is scored
+    assert (scores.final_distance < scores.start_distance).all()
+    assert (scores.foot_skating >= 0).all()
 
 
 def test_a_pose_shifted_one_metre_is_22_metres_of_skeleton_distance(sit_case):
@@ -103,9 +103,9 @@ def test_a_pose_shifted_one_metre_is_22_metres_of_skeleton_distance(sit_case):
     away = record.motion.transformed(0.0, torch.tensor([1.0, 0.0, 0.0], dtype=record.motion.root_position.dtype))
     scores = evaluation.evaluate_motions([away], [record.obj], anchors[:1], n_approach=30, n_object_points=500)
     # Every joint is exactly 1 m from the anchor's: the sum over the 22 joints is 22 m.
-    assert scores["skeleton_distance"][0] == pytest.approx(NUM_JOINTS * 1.0, abs=1e-4)
-    assert scores["d2o"][0] > 0.3
-    assert math.isnan(scores["penetration"][0])  # not reaching: Table 1 does not score its approach
+    assert scores.skeleton_distance[0] == pytest.approx(NUM_JOINTS * 1.0, abs=1e-4)
+    assert scores.d2o[0] > 0.3
+    assert math.isnan(scores.penetration[0])  # not reaching: Table 1 does not score its approach
 
 
 def test_evaluate_motions_rejects_bad_input(sit_case):
@@ -139,23 +139,24 @@ def test_approach_length_of_sitting_ends_before_the_seat_is_reached(sit_case):
 
 
 def test_table_row_known_answer():
-    results = {
-        "foot_skating": np.array([0.1, 0.3, 0.2, 0.4]),
-        "d2o": np.array([0.0, 0.01, 0.5, 1.0]),
-        "penetration": np.array([0.01, 0.03, np.nan, np.nan]),
-        "skeleton_distance": np.array([1.0, 2.0, 3.0, 6.0]),
-        "contact_iou": np.array([1.0, 0.5, 0.0, 0.0]),
-    }
+    unused = np.zeros(4)
+    results = evaluation.MotionScores(
+        foot_skating=np.array([0.1, 0.3, 0.2, 0.4]),
+        d2o=np.array([0.0, 0.01, 0.5, 1.0]),
+        penetration=np.array([0.01, 0.03, np.nan, np.nan]),
+        skeleton_distance=np.array([1.0, 2.0, 3.0, 6.0]),
+        nearest_anchor=unused.astype(int), contact_iou=np.array([1.0, 0.5, 0.0, 0.0]),
+        start_distance=unused, final_distance=unused)
     row = evaluation.table_row(results)
     assert list(row) == list(evaluation.TABLE1_COLUMNS)
     assert row["Foot Skating ↓"] == pytest.approx(0.25)
     assert row["% D2O ≤ 2cm ↑"] == pytest.approx(50.0)
-    assert row["D2O 95th % ↓"] == pytest.approx(np.percentile(results["d2o"], 95))
+    assert row["D2O 95th % ↓"] == pytest.approx(np.percentile(results.d2o, 95))
     assert row["Skel. Dist. ↓"] == pytest.approx(3.0)
     assert row["Contact IoU ↑"] == pytest.approx(0.375)
     assert row["% Pen. ≤ 2cm ↑"] == pytest.approx(50.0)  # of the two that reach, one penetrates ≤ 2 cm
-    with pytest.raises(ValueError, match="missing"):
-        evaluation.table_row({"d2o": results["d2o"]})
+    with pytest.raises(TypeError, match="MotionScores"):
+        evaluation.table_row({"d2o": results.d2o})
 
 
 # --------------------------------------------------------------------------- a model, end to end
@@ -170,22 +171,22 @@ def test_evaluate_motion_model_samples_scores_and_caches(sit_case, tmp_cache):
                                        warmup_steps=0)
     config = evaluation.EvaluationConfig(n_scenes=3, n_training=2, n_approach_sequences=2, n_object_points=200)
     result = evaluation.evaluate_motion_model(dataset, model_config, config)
-    assert len(result["test_scenes"]) == 3 and result["training_index"] == [0, 1]
-    assert 0 < result["n_approach"] <= FRAMES
-    assert len(result["scenes"]["motions"]) == 3 and len(result["training"]["motions"]) == 2
-    assert all(len(m) == FRAMES for m in result["scenes"]["motions"])
+    assert len(result.test_scenes) == 3 and result.training_index == [0, 1]
+    assert 0 < result.n_approach <= FRAMES
+    assert len(result.scenes.motions) == 3 and len(result.training.motions) == 2
+    assert all(len(m) == FRAMES for m in result.scenes.motions)
     # The data set's own motions score as the data.
-    np.testing.assert_allclose(result["data"]["metrics"]["skeleton_distance"], 0.0, atol=1e-9)
+    np.testing.assert_allclose(result.data.metrics.skeleton_distance, 0.0, atol=1e-9)
     for name in ("scenes", "training", "data"):
-        assert set(result[name]["metrics"]) >= {"d2o", "skeleton_distance", "final_distance", "start_distance"}
-    assert all(torch.isfinite(m.joints).all() for m in result["scenes"]["motions"])
-    assert result["training"]["metrics"]["final_distance_positions"].shape == (2,)
-    assert "final_distance_positions" not in result["data"]["metrics"]
+        assert len(getattr(result, name).metrics) == len(getattr(result, name).motions)
+    assert all(torch.isfinite(m.joints).all() for m in result.scenes.motions)
+    assert result.training.metrics.final_distance_positions.shape == (2,)
+    assert result.data.metrics.final_distance_positions is None
     again = evaluation.evaluate_motion_model(dataset, model_config, config)
     assert len(list(tmp_cache.glob("nifty_sit_motion_model_evaluation-*.pt"))) == 1
     for name in ("scenes", "training"):
-        np.testing.assert_array_equal(result[name]["metrics"]["d2o"], again[name]["metrics"]["d2o"])
-        torch.testing.assert_close(result[name]["motions"][0].joints, again[name]["motions"][0].joints)
+        np.testing.assert_array_equal(getattr(result, name).metrics.d2o, getattr(again, name).metrics.d2o)
+        torch.testing.assert_close(getattr(result, name).motions[0].joints, getattr(again, name).motions[0].joints)
 
 
 def test_penetration_depths_match_the_full_body_sdf(sit_case):
@@ -203,3 +204,16 @@ def test_penetration_depths_match_the_full_body_sdf(sit_case):
         assert (np.clip(-full, 0.0, None) > 0).any()  # the seated body does reach into the chair
         finite = np.isfinite(fast)
         np.testing.assert_array_equal(fast[finite], full[finite])
+
+
+def test_paper_numbers_fill_table1_for_every_method_and_action():
+    from hoi_tutorial.nifty import paper_numbers
+
+    assert evaluation.TABLE1_COLUMNS is paper_numbers.TABLE1_COLUMNS
+    for action in ("sit", "lift"):
+        assert tuple(paper_numbers.TABLE1[action]) == paper_numbers.TABLE1_METHODS
+        for row in paper_numbers.TABLE1[action].values():
+            assert tuple(row) == evaluation.TABLE1_COLUMNS
+            assert 0 <= row["% D2O ≤ 2cm ↑"] <= 100 and 0 <= row["Contact IoU ↑"] <= 1
+    with pytest.raises(TypeError):
+        paper_numbers.TABLE1["sit"]["NIFTY"]["Foot Skating ↓"] = 0.0  # read-only

@@ -317,10 +317,10 @@ def test_trained_model_is_cached(tmp_cache, sit_records):
     dataset = SyntheticDataset(config=synthetic_data_config("sit", "toy"), anchors=[], sequences=sit_records,
                                leaves=[], all_paths=[], tree_stats=[], stats={})
     config = small_config(steps=3)
-    model, info = trained_motion_model(dataset, config, progress=False)
-    again, info_again = trained_motion_model(dataset, config, progress=False)
+    trained = trained_motion_model(dataset, config, progress=False)
+    model, again = trained.model, trained_motion_model(dataset, config, progress=False).model
     assert len(list(tmp_cache.glob("nifty_sit_motion_model-*.pt"))) == 1
-    assert info["n_sequences"] == 2 and len(info["losses"]) == 3
+    assert trained.details["n_sequences"] == 2 and len(trained.losses) == 3
     for name, value in model.state_dict().items():
         torch.testing.assert_close(value, again.state_dict()[name], rtol=0, atol=0)
     assert not torch.equal(model.state_std, torch.ones(NIFTY_STATE_SIZE))  # statistics travel with the weights

@@ -10,12 +10,8 @@ from hoi_tutorial.world.mocap.gait import walk_path
 
 
 @pytest.fixture(autouse=True, scope="module")
-def one_cpu_thread():
-    """Tiny models run fastest on one thread; more threads stall when the cores are shared."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+def _one_cpu_thread(one_cpu_thread):
+    """Tiny models run fastest on one thread (the shared fixture in conftest)."""
 
 
 @pytest.fixture(scope="module")
@@ -121,12 +117,9 @@ def test_path_statistics_of_a_straight_constant_speed_walk():
 def test_training_and_sampling_plumbing(small_walks):
     config = tj.trajectory_model_config("toy", steps=20, width=32, depth=1, batch_size=8, n_coefficients=8,
                                         diffusion_steps=10)
-    result = tj.train_trajectory_denoiser(config, small_walks)
-    assert len(result["losses"]) == 20 and all(math.isfinite(v) for v in result["losses"])
-    codec = tj.TrajectoryCodec(**result["codec"])
-    model = tj.build_trajectory_denoiser(config)
-    model.load_state_dict(result["state"])
-    model.eval()
+    model, codec, result = tj.train_trajectory_denoiser(config, small_walks)
+    assert len(result.losses) == 20 and all(math.isfinite(v) for v in result.losses)
+    assert not model.training
     schedule = config.noise_schedule()
     walks = tj.sample_walks(model, codec, schedule, 4, generator=torch.Generator().manual_seed(0))
     assert walks.shape == (4, 40, 3)

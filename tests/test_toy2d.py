@@ -14,12 +14,8 @@ from hoi_tutorial.nn.diffusion import classifier_free_x0, cosine_schedule, q_sam
 
 
 @pytest.fixture(autouse=True, scope="module")
-def one_cpu_thread():
-    """Tiny models run fastest on one thread; more threads stall when the cores are shared."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+def _one_cpu_thread(one_cpu_thread):
+    """Tiny models run fastest on one thread (the shared fixture in conftest)."""
 
 # --------------------------------------------------------------------------- distributions
 
@@ -229,10 +225,13 @@ def test_config_presets_and_overrides():
 def test_training_is_deterministic_and_loads_back():
     config = toy2d.toy2d_config("toy", steps=25, n_train=500, batch_size=64, width=32, depth=1,
                                 fourier_features=8)
-    state, losses = toy2d.train_toy2d_denoiser(config)
-    _, losses_again = toy2d.train_toy2d_denoiser(config)
+    trained, result = toy2d.train_toy2d_denoiser(config)
+    again, result_again = toy2d.train_toy2d_denoiser(config)
+    losses = result.losses
     assert len(losses) == 25 and all(math.isfinite(v) for v in losses)
-    assert losses == losses_again
+    assert losses == result_again.losses
+    for name, value in trained.state_dict().items():
+        assert torch.equal(value, again.state_dict()[name])
     model = toy2d.build_toy2d_denoiser(config)
-    model.load_state_dict(state)
+    model.load_state_dict(trained.state_dict())
     assert sum(losses[-5:]) < sum(losses[:5])  # it learns

@@ -13,17 +13,18 @@ from .cache import (
 )
 from .device import choose_device, one_thread, single_threaded
 from .parallel import available_cores, warm_cache
-from .presets import SCALES, ScalePreset, by_scale, check_scale, preset
+from .presets import SCALES, by_scale, check_scale, scaled_config
 from .seeding import check_seed, rng, seed_everything
 from .tables import format_seconds, side_by_side
-from .training import TrainerConfig, TrainResult, learning_rate_factor, move_to_device, train
+from .training import (TrainedModel, TrainerConfig, TrainResult, learning_rate_factor, move_to_device, train,
+                       trainer_config)
 
 __all__ = [
-    "SCALES", "ScalePreset", "by_scale", "check_scale", "preset",
+    "SCALES", "by_scale", "check_scale", "scaled_config",
     "check_seed", "rng", "seed_everything",
     "choose_device", "one_thread", "single_threaded", "available_cores", "warm_cache",
     "CorruptArtifactWarning", "NotCachedError", "cache_only", "artifact_key", "artifact_path", "cache_dir", "clear_cache",
     "load_or_build", "state_dict_to_cpu",
-    "TrainerConfig", "TrainResult", "learning_rate_factor", "move_to_device", "train",
+    "TrainerConfig", "TrainResult", "TrainedModel", "trainer_config", "learning_rate_factor", "move_to_device", "train",
     "format_seconds", "side_by_side",
 ]

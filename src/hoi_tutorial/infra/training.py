@@ -16,6 +16,7 @@ loop and restored afterwards, so two CPU runs from the same initial model are bi
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections import defaultdict
@@ -29,7 +30,8 @@ from .._validate import check_choice
 from .device import choose_device
 from .seeding import check_seed
 
-__all__ = ["TrainerConfig", "TrainResult", "train", "learning_rate_factor", "move_to_device"]
+__all__ = ["TrainerConfig", "TrainResult", "TrainedModel", "train", "trainer_config", "learning_rate_factor",
+           "move_to_device"]
 
 LR_SCHEDULES = ("constant", "cosine", "onecycle")
 OPTIMIZERS = ("adamw", "adam")
@@ -50,7 +52,8 @@ class TrainerConfig:
             interaction field uses: from lr/25 up to lr, then down to lr/25e4).
         warmup_steps: linear warm-up steps (for ``"onecycle"``: the rising phase, 30 % of
             ``steps`` when 0).
-        log_every: update the progress bar's loss every this many steps.
+        log_every: read the losses back from the device (one sync) and update the progress bar
+            every this many steps; a NaN or infinite loss is reported at the next read-back.
         device: ``"auto"``, ``"cpu"``, ``"cuda"``, ``"cuda:N"`` or ``"mps"``.
         progress: show a progress bar.
         seed: seeds the batch generator and the random state used inside the model (dropout).
@@ -129,6 +132,57 @@ class TrainResult:
         ax.set_ylabel("loss")
         ax.legend(frameon=False)
         return ax
+
+
+@dataclass
+class TrainedModel:
+    """A trained model as a ``trained_*`` function returns it (built, or loaded from the cache).
+
+    Attributes:
+        model: the model in eval mode, on the CPU.
+        losses: ``(steps,)`` float32, the training loss at every step.
+        seconds: wall-clock seconds the training took when it ran (not the load).
+        details: what else the builder records, documented by each ``trained_*`` function (e.g.
+            ``n_sequences``, the number of training examples).
+    """
+
+    model: torch.nn.Module
+    losses: torch.Tensor
+    seconds: float
+    details: dict = field(default_factory=dict)
+
+    def plot(self, ax=None, label: str = "loss"):
+        """The loss curve, as :meth:`TrainResult.plot` draws it."""
+        return TrainResult(losses=[float(v) for v in self.losses]).plot(ax=ax, label=label)
+
+
+_TRAINER_FIELDS = ("steps", "batch_size", "lr", "weight_decay", "grad_clip", "lr_schedule", "warmup_steps",
+                   "seed", "optimizer")
+
+
+def trainer_config(config, device="cpu", progress: bool = False, **overrides) -> TrainerConfig:
+    """The :class:`TrainerConfig` of a component's configuration: every field the two share is copied.
+
+    A component config (e.g. ``nifty.motion_model.MotionModelConfig``) holds its optimisation
+    settings beside its model settings; this reads ``steps``, ``batch_size``, ``lr``,
+    ``weight_decay``, ``grad_clip``, ``lr_schedule``, ``warmup_steps``, ``seed`` and ``optimizer``
+    where it has them (the others keep :class:`TrainerConfig`'s defaults). The warm-up is cut to
+    ``steps`` so a short run (a test overriding ``steps``) keeps a valid schedule.
+
+    Args:
+        config: a dataclass instance with at least ``steps``.
+        device, progress: as :class:`TrainerConfig`.
+        overrides: :class:`TrainerConfig` fields to set explicitly.
+    """
+    if not dataclasses.is_dataclass(config) or not hasattr(config, "steps"):
+        raise TypeError(f"config: expected a configuration dataclass with a 'steps' field, "
+                        f"got {type(config).__name__}")
+    values = {name: getattr(config, name) for name in _TRAINER_FIELDS if hasattr(config, name)}
+    values.update(overrides)
+    steps = values["steps"]
+    if isinstance(steps, int) and isinstance(values.get("warmup_steps"), int):
+        values["warmup_steps"] = min(values["warmup_steps"], steps)
+    return TrainerConfig(device=str(device), progress=progress, **values)
 
 
 def learning_rate_factor(schedule: str, step: int, steps: int, warmup_steps: int = 0) -> float:
@@ -212,6 +266,25 @@ def train(model: torch.nn.Module, sample_batch: Callable[[int, torch.Generator],
         torch.manual_seed(config.seed)
         bar = tqdm(range(config.steps), disable=not config.progress, leave=False,
                    desc=type(model).__name__)
+        pending = []  # (step, loss tensor, logs) since the last read-back: one device sync per interval
+
+        def flush():
+            # Read the losses of the pending steps back at once (a GPU syncs once per interval).
+            values = torch.stack([loss for _, loss, _ in pending]).tolist() if pending else []
+            stop = False
+            for (step_, _, logs_), value in zip(pending, values):
+                if not math.isfinite(value):
+                    raise FloatingPointError(f"loss became {value} at step {step_}")
+                result.losses.append(value)
+                logs_ = {name: float(v) for name, v in logs_.items()}
+                for name, v in logs_.items():
+                    extra[name].append(v)
+                stop = any([callback(step_, model, value, logs_) is True for callback in callbacks]) or stop
+            if values:
+                bar.set_postfix(loss=f"{values[-1]:.4g}")
+            pending.clear()
+            return stop
+
         for step in bar:
             batch = move_to_device(sample_batch(step, generator), device)
             output = loss_fn(model, batch)
@@ -219,24 +292,16 @@ def train(model: torch.nn.Module, sample_batch: Callable[[int, torch.Generator],
             if not isinstance(loss, torch.Tensor) or loss.ndim != 0:
                 shape = tuple(loss.shape) if isinstance(loss, torch.Tensor) else type(loss).__name__
                 raise ValueError(f"loss_fn: expected a scalar tensor, got {shape}")
-            value = loss.item()
-            if not math.isfinite(value):
-                raise FloatingPointError(f"loss became {value} at step {step}")
             optimizer.zero_grad(set_to_none=True)
             loss.backward()
             if config.grad_clip is not None:
                 torch.nn.utils.clip_grad_norm_(parameters, config.grad_clip)
             optimizer.step()
             scheduler.step()
-            result.losses.append(value)
-            logs = {name: float(v) for name, v in logs.items()}
-            for name, v in logs.items():
-                extra[name].append(v)
-            if step % config.log_every == 0 or step == config.steps - 1:
-                bar.set_postfix(loss=f"{value:.4g}")
-            stops = [callback(step, model, value, logs) is True for callback in callbacks]
-            if any(stops):
+            pending.append((step, loss.detach(), logs))
+            if (callbacks or (step + 1) % config.log_every == 0 or step == config.steps - 1) and flush():
                 break
+        flush()
         bar.close()
     result.seconds = time.perf_counter() - start
     result.extra = dict(extra)

@@ -9,4 +9,5 @@ Modules, in the order of the paper:
 - ``data``: the synthetic-data pipeline end to end, cached: mocap, prior, anchors, trees, datasets (§3.3).
 - ``motion_model``: the object-conditioned motion diffusion model, its training and sampling (§3.1, Appendix B).
 - ``evaluation``: test scenes and the metrics of Table 1 (§4.2, Appendix C.2).
+- ``paper_numbers``: the paper's reported numbers, transcribed, for the tables set beside ours.
 """

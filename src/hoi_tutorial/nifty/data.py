@@ -22,20 +22,23 @@ import numpy as np
 import torch
 
 from .._validate import check_choice
-from ..infra import by_scale, load_or_build, state_dict_to_cpu
+from ..infra import TrainedModel, load_or_build, state_dict_to_cpu
+from ..infra.presets import check_scale, scaled_config
 from .. import world as world_module
 from ..world import mocap as mocap_module
 from ..world.motion import FPS, Motion, action_id
 from . import anchors as anchors_module
 from . import motion_prior, rollout
 from .anchors import Anchor, collect_anchors
-from .motion_prior import PriorConfig, ReversePrior, train_reverse_prior
+from .motion_prior import PriorConfig, ReversePrior, prior_config, train_reverse_prior
 from .rollout import (InteractionSequence, PruneConfig, TreeConfig, grow_trees, joint_limits_from,
-                      skating_limit_from, start_distance)
+                      skating_limit_from, start_distance, tree_config)
 
 __all__ = [
     "PRIOR_MOCAP_KINDS",
     "SyntheticDataConfig",
+    "SYNTHETIC_DATA_SCALES",
+    "PAPER_ANCHORS_PER_SUBJECT",
     "synthetic_data_config",
     "prior_training_clips",
     "prune_settings",
@@ -57,28 +60,31 @@ PRIOR_MOCAP_KINDS = ("walk", "turn", "side_step", "idle", "sit", "lift")
 class SyntheticDataConfig:
     """Everything that determines a synthetic dataset (the cache key).
 
+    The defaults are the ``toy`` preset for sitting; :func:`synthetic_data_config` gives every
+    scale and action.
+
     Attributes:
         action: ``"sit"`` or ``"lift"``.
         clips_per_kind: toy-mocap clips per kind of ``PRIOR_MOCAP_KINDS`` for the prior.
         mocap_subjects: toy subjects in the prior's training mocap.
         n_subjects: subjects the anchors come from (NIFTY: 7).
         anchors_per_subject: anchors per subject (NIFTY: ~25 sitting, ~10 lifting).
-        prior: the prior's sizes and training settings.
-        tree: Algorithm 1's settings.
+        prior: the prior's sizes and training settings (``motion_prior.prior_config``).
+        tree: Algorithm 1's settings (``rollout.tree_config``).
         prune: PruneCheck thresholds (the joint limits are derived from the mocap, see
             :func:`prune_settings`).
         check_skating: PruneCheck also rejects nodes whose feet skate more than the mocap's worst
             second (our addition to NIFTY's checks, see ``rollout.PruneConfig.skating``). Off in
             every preset: at toy scale it leaves few sitting paths (chapter 3 measures the share
             of the kept sequences that would pass it).
-        seed: base seed.
+        seed: base seed (:func:`synthetic_data_config` also gives it to the prior).
     """
 
     action: str = "sit"
     clips_per_kind: int = 8
     mocap_subjects: int = 4
     n_subjects: int = 4
-    anchors_per_subject: int = 3
+    anchors_per_subject: int = 2
     prior: PriorConfig = field(default_factory=PriorConfig)
     tree: TreeConfig = field(default_factory=TreeConfig)
     prune: PruneConfig = field(default_factory=PruneConfig)
@@ -86,28 +92,34 @@ class SyntheticDataConfig:
     seed: int = 0
 
 
-def synthetic_data_config(action: str, scale: str = "toy", seed: int = 0) -> SyntheticDataConfig:
-    """The preset for ``scale`` (``toy``: CPU minutes; ``small``; ``paper``: NIFTY's sizes)."""
+# What the larger scales change from the defaults (the toy preset); the prior and the trees take
+# theirs from ``motion_prior.PRIOR_SCALES`` and ``rollout.TREE_SCALES``.
+SYNTHETIC_DATA_SCALES = {
+    "small": {"clips_per_kind": 30, "mocap_subjects": 7, "n_subjects": 7, "anchors_per_subject": 8},
+    "paper": {"clips_per_kind": 200, "mocap_subjects": 20, "n_subjects": 7},
+}
+# NIFTY: 174 sitting / 72 lifting anchors from 7 subjects.
+PAPER_ANCHORS_PER_SUBJECT = {"sit": 25, "lift": 10}
+
+
+def synthetic_data_config(action: str, scale: str = "toy", **overrides) -> SyntheticDataConfig:
+    """The preset for ``action`` and ``scale`` (``toy``: CPU minutes; ``small``; ``paper``: NIFTY's
+    sizes), fields overridable by keyword.
+
+    ``seed`` seeds the whole pipeline, the prior's training included: ``seed=3`` also sets
+    ``prior.seed`` to 3. ``prior`` and ``tree`` are that component's preset for the same scale
+    (``motion_prior.prior_config``, ``rollout.tree_config``); pass a whole configuration to replace
+    one (``prior=prior_config("toy", steps=100)``), it is then used as it is.
+    """
     check_choice(action, ("sit", "lift"), "action")
-    anchors_paper = 25 if action == "sit" else 10
-    return SyntheticDataConfig(
-        action=action,
-        clips_per_kind=by_scale(scale, toy=8, small=30, paper=200),
-        mocap_subjects=by_scale(scale, toy=4, small=7, paper=20),
-        n_subjects=by_scale(scale, toy=4, small=7, paper=7),
-        anchors_per_subject=by_scale(scale, toy=2, small=8, paper=anchors_paper),
-        prior=PriorConfig(
-            steps=by_scale(scale, toy=800, small=10000, paper=100000),
-            width=by_scale(scale, toy=256, small=512, paper=1024),
-            latent=by_scale(scale, toy=24, small=48, paper=48),
-            seed=seed,
-        ),
-        # Trees of 4 s instead of 7 s reach less far from the seat: the start-distance filter scales with them.
-        tree=TreeConfig(max_depth=by_scale(scale, toy=4, small=5, paper=7),
-                        min_start_distance=by_scale(scale, toy=0.75, small=1.0, paper=1.0)),
-        prune=PruneConfig(),
-        seed=seed,
-    )
+    check_scale(scale, "synthetic_data_config: scale")
+    fixed = {"action": action,
+             "prior": prior_config(scale, seed=overrides.get("seed", SyntheticDataConfig.seed)),
+             "tree": tree_config(scale)}
+    if scale == "paper":
+        fixed["anchors_per_subject"] = PAPER_ANCHORS_PER_SUBJECT[action]
+    return scaled_config(SyntheticDataConfig, scale, SYNTHETIC_DATA_SCALES, overrides,
+                         factory="synthetic_data_config", fixed=fixed)
 
 
 def prior_training_clips(config: SyntheticDataConfig) -> list[Motion]:
@@ -146,7 +158,9 @@ def prune_settings(config: SyntheticDataConfig, check_skating: Optional[bool] = 
 def trained_prior(config: SyntheticDataConfig, device: str = "cpu", progress: bool = True):
     """The reverse prior for ``config``, trained once and then loaded from the artifact cache.
 
-    Returns ``(model, info)`` where ``info`` holds the training losses and seconds.
+    Returns a :class:`~hoi_tutorial.infra.TrainedModel` (the prior in eval mode, its losses and
+    seconds) whose ``details`` hold ``n_clips`` and ``n_frames``, the reversed toy-mocap clips and
+    frames it was trained on.
     """
     def build():
         clips = prior_training_clips(config)
@@ -160,8 +174,8 @@ def trained_prior(config: SyntheticDataConfig, device: str = "cpu", progress: bo
     artifact = load_or_build("nifty_reverse_prior", key, build, code=(motion_prior, world_module))
     model = ReversePrior(config.prior)
     model.load_state_dict(artifact["state"])
-    info = {k: v for k, v in artifact.items() if k != "state"}
-    return model.eval(), info
+    return TrainedModel(model.eval(), artifact["losses"], artifact["seconds"],
+                        {"n_clips": artifact["n_clips"], "n_frames": artifact["n_frames"]})
 
 
 @dataclass
@@ -175,7 +189,8 @@ class SyntheticDataset:
         leaves: per anchor, the indices into ``all_paths`` of its root-to-leaf paths (Fig. 4).
         all_paths: every root-to-node path before the 1 m filter, as ``InteractionSequence``.
         tree_stats: per anchor, survival rates and failure counts of Algorithm 1.
-        stats: totals (paths, kept, filtered) and the prior's training info.
+        stats: totals (``paths``, ``kept``, ``filtered_near_start``) and ``prior``, the prior's
+            training seconds, clips and frames.
     """
 
     config: SyntheticDataConfig
@@ -211,7 +226,8 @@ def _paths_payload(trees) -> dict:
 
 def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool = True) -> SyntheticDataset:
     """Run (or load) the whole synthetic-data pipeline for one interaction."""
-    prior, prior_info = trained_prior(config, device=device, progress=progress)
+    trained = trained_prior(config, device=device, progress=progress)
+    prior = trained.model
     anchors = collect_anchors(config.action, config.n_subjects, config.anchors_per_subject, config.seed)
 
     def build():
@@ -236,7 +252,7 @@ def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool 
     leaves = [[i for i in range(len(all_paths)) if payload["anchor"][i] == a and payload["leaf"][i]]
               for a in range(len(anchors))]
     stats = {"paths": len(all_paths), "kept": len(sequences), "filtered_near_start": len(all_paths) - len(sequences),
-             "prior": prior_info}
+             "prior": {"seconds": trained.seconds, **trained.details}}
     return SyntheticDataset(config, anchors, sequences, leaves, all_paths, payload["trees"], stats)
 
 

@@ -38,6 +38,7 @@ import torch
 from .. import metrics
 from .._validate import check_choice
 from ..infra import load_or_build, single_threaded
+from ..infra.presets import scaled_config
 from ..world import body as body_module
 from ..world.features import NIFTY_STATE_LAYOUT, canonicalize
 from ..world.mocap import generate_clip
@@ -45,12 +46,18 @@ from ..world.motion import Motion
 from . import data as data_module
 from . import motion_model as mm
 from .motion_model import anchor_skeleton_distance, final_pelvis_distance
+from .paper_numbers import TABLE1_COLUMNS
 
 __all__ = [
     "TestScene",
     "test_scenes",
     "scene_distance_range",
     "EvaluationConfig",
+    "EVALUATION_SCALES",
+    "evaluation_config",
+    "MotionScores",
+    "ScoredMotions",
+    "MotionModelEvaluation",
     "evaluate_motion_model",
     "build_evaluation",
     "APPROACH_QUANTILE",
@@ -63,9 +70,6 @@ __all__ = [
 # NIFTY Appendix C.2: the median approach length for sitting, the 15th percentile for lifting.
 APPROACH_QUANTILE = {"sit": 0.5, "lift": 0.15}
 
-# Table 1's columns, in its order (direction of each in its name).
-TABLE1_COLUMNS = ("Foot Skating ↓", "% D2O ≤ 2cm ↑", "D2O 95th % ↓", "Skel. Dist. ↓", "Contact IoU ↑",
-                  "% Pen. ≤ 2cm ↑")
 
 
 @dataclass
@@ -84,6 +88,77 @@ class TestScene:
     start: Motion
     anchor: int
     distance: float
+
+
+@dataclass
+class MotionScores:
+    """NIFTY's per-sequence metrics (§4.2) of ``N`` interaction motions, one ``(N,)`` array each.
+
+    Attributes:
+        foot_skating: m/s, the right toe's skating score.
+        d2o: metres, the final body's distance to the object's surface.
+        penetration: metres, the approach's penetration score (NaN where D2O > 2 cm: not scored).
+        skeleton_distance: metres summed over the 22 joints, final pose to the nearest anchor pose.
+        nearest_anchor: int, that anchor's index.
+        contact_iou: IoU of the final pose's contacting vertices with the nearest anchor's.
+        start_distance, final_distance: metres, the pelvis's ground distance to the object's centre
+            at the first and the last frame.
+        final_distance_positions: metres, ``final_distance`` with the root read from the predicted
+            positions ``t^p`` instead of integrated velocities (generated motions only; else None).
+    """
+
+    foot_skating: np.ndarray
+    d2o: np.ndarray
+    penetration: np.ndarray
+    skeleton_distance: np.ndarray
+    nearest_anchor: np.ndarray
+    contact_iou: np.ndarray
+    start_distance: np.ndarray
+    final_distance: np.ndarray
+    final_distance_positions: Optional[np.ndarray] = None
+
+    def __len__(self) -> int:
+        return int(len(self.d2o))
+
+    def as_dict(self) -> dict:
+        """The arrays by name (those that are set), e.g. for the artifact cache or a DataFrame."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if getattr(self, f.name) is not None}
+
+
+@dataclass
+class ScoredMotions:
+    """A set of motions with their metrics.
+
+    Attributes:
+        motions: ``N`` world-frame ``Motion``.
+        metrics: their :class:`MotionScores`.
+    """
+
+    motions: list
+    metrics: MotionScores
+
+
+@dataclass
+class MotionModelEvaluation:
+    """What :func:`evaluate_motion_model` returns.
+
+    Attributes:
+        n_approach: ``N_A``, approach frames scored for penetration (Appendix C.2).
+        training_index: indices into ``dataset.sequences`` of the training sequences sampled.
+        test_scenes: the :class:`TestScene` list.
+        distance_range: ``(low, high)`` metres, the test scenes' start distances.
+        scenes: one unguided sample per test scene (NIFTY's Cond. MDM baseline).
+        training: one sample per training condition in ``training_index``.
+        data: those training sequences themselves (the synthetic data's own scores).
+    """
+
+    n_approach: int
+    training_index: list
+    test_scenes: list
+    distance_range: tuple
+    scenes: ScoredMotions
+    training: ScoredMotions
+    data: ScoredMotions
 
 
 _PLACEMENT_TRIES = 100
@@ -218,7 +293,7 @@ def approach_length(motions: Sequence[Motion], objects: Sequence, action: str, m
 
 @single_threaded
 def evaluate_motions(motions: Sequence[Motion], objects: Sequence, anchors: Sequence, n_approach: int,
-                     n_object_points: int = 2000, seed: int = 0, reach: float = 0.02) -> dict:
+                     n_object_points: int = 2000, seed: int = 0, reach: float = 0.02) -> MotionScores:
     """NIFTY's per-sequence metrics (§4.2) for generated (or data) interaction motions.
 
     Args:
@@ -230,9 +305,7 @@ def evaluate_motions(motions: Sequence[Motion], objects: Sequence, anchors: Sequ
         seed: seed of the point sampling.
         reach: metres, the D2O below which a sequence counts as reaching the object.
     Returns:
-        dict of ``(N,)`` numpy arrays: ``foot_skating`` (m/s), ``d2o`` (m), ``penetration`` (m),
-        ``skeleton_distance`` (m, summed over the 22 joints), ``nearest_anchor`` (int),
-        ``contact_iou``, ``start_distance`` and ``final_distance`` (m, pelvis to object centre).
+        :class:`MotionScores` (``final_distance_positions`` unset).
     """
     motions, objects, anchors = list(motions), list(objects), list(anchors)
     if not motions or len(motions) != len(objects):
@@ -272,28 +345,28 @@ def evaluate_motions(motions: Sequence[Motion], objects: Sequence, anchors: Sequ
         out["contact_iou"].append(float(metrics.contact_iou(contacts, anchor_contacts[nearest])))
         out["start_distance"].append(first)
         out["final_distance"].append(last)
-    return {name: np.asarray(values) for name, values in out.items()}
+    return MotionScores(**{name: np.asarray(values) for name, values in out.items()})
 
 
-def table_row(results: dict, d2o_threshold: float = 0.02, penetration_threshold: float = 0.02) -> dict:
-    """One row of NIFTY Table 1 from :func:`evaluate_motions` output.
+def table_row(results: MotionScores, d2o_threshold: float = 0.02, penetration_threshold: float = 0.02) -> dict:
+    """One row of NIFTY Table 1 from :class:`MotionScores` (:func:`evaluate_motions`).
 
     Returns ``{column: value}`` over :data:`TABLE1_COLUMNS`: mean foot skating, % of sequences with
     D2O ≤ 2 cm, the 95th percentile of D2O (metres), mean skeleton distance (metres), mean contact
     IoU, and the % of sequences with penetration ≤ 2 cm among those with D2O ≤ 2 cm (NaN when none
     reaches the object).
     """
-    missing = {"foot_skating", "d2o", "penetration", "skeleton_distance", "contact_iou"} - set(results)
-    if missing:
-        raise ValueError(f"results: expected the output of evaluate_motions, missing {sorted(missing)}")
-    d2o = metrics.d2o_summary(results["d2o"], threshold=d2o_threshold)
+    if not isinstance(results, MotionScores):
+        raise TypeError(f"results: expected MotionScores (the output of evaluate_motions), "
+                        f"got {type(results).__name__}")
+    d2o = metrics.d2o_summary(results.d2o, threshold=d2o_threshold)
     values = (
-        float(np.mean(results["foot_skating"])),
+        float(np.mean(results.foot_skating)),
         d2o["pct_within"],
         d2o["p95"],
-        float(np.mean(results["skeleton_distance"])),
-        float(np.mean(results["contact_iou"])),
-        metrics.penetration_pass_rate(results["penetration"], results["d2o"], threshold=penetration_threshold,
+        float(np.mean(results.skeleton_distance)),
+        float(np.mean(results.contact_iou)),
+        metrics.penetration_pass_rate(results.penetration, results.d2o, threshold=penetration_threshold,
                                       d2o_threshold=d2o_threshold),
     )
     return dict(zip(TABLE1_COLUMNS, values))
@@ -305,6 +378,8 @@ def table_row(results: dict, d2o_threshold: float = 0.02, penetration_threshold:
 @dataclass(frozen=True)
 class EvaluationConfig:
     """What :func:`evaluate_motion_model` samples and measures (part of its cache key).
+
+    The defaults are the ``toy`` preset; :func:`evaluation_config` gives every scale.
 
     Attributes:
         n_scenes: random test scenes (NIFTY: 500 per action).
@@ -321,6 +396,18 @@ class EvaluationConfig:
     n_object_points: int = 2000
     guidance_scale: Optional[float] = None
     seed: int = 0
+
+
+# What the larger scales change from the defaults (the toy preset); NIFTY tests 500 scenes per action.
+EVALUATION_SCALES = {
+    "small": {"n_scenes": 100},
+    "paper": {"n_scenes": 500},
+}
+
+
+def evaluation_config(scale: str = "toy", **overrides) -> EvaluationConfig:
+    """The evaluation of a scale preset (``"toy"``: 32 test scenes per action), fields overridable."""
+    return scaled_config(EvaluationConfig, scale, EVALUATION_SCALES, overrides, factory="evaluation_config")
 
 
 def scene_distance_range(dataset, low: float = 5.0, high: float = 95.0) -> tuple[float, float]:
@@ -347,7 +434,7 @@ def _payload_motions(payload: dict, betas: Sequence[torch.Tensor]) -> list[Motio
 
 
 def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConfig] = None, device="cpu",
-                          progress: bool = False) -> dict:
+                          progress: bool = False) -> MotionModelEvaluation:
     """Sample a trained motion model and score it with NIFTY's metrics, once (then from the cache).
 
     Three sets of motions are scored with :func:`evaluate_motions`:
@@ -370,10 +457,7 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
         device: where to train (if needed) and sample.
         progress: progress bar while training.
     Returns:
-        dict with ``n_approach`` (``N_A``), ``training_index`` (indices into
-        ``dataset.sequences``), ``test_scenes`` (the :class:`TestScene` list), ``distance_range`` and,
-        for each of
-        ``"scenes"``, ``"training"``, ``"data"``: ``{"motions": [Motion], "metrics": {...}}``.
+        a :class:`MotionModelEvaluation`.
     """
     config = config or EvaluationConfig()
     if not dataset.sequences:
@@ -385,7 +469,7 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
     training = [dataset.sequences[i] for i in training_index]
 
     def build():
-        model, _ = mm.trained_motion_model(dataset, model_config, device=device, progress=progress)
+        model = mm.trained_motion_model(dataset, model_config, device=device, progress=progress).model
         n_approach = approach_length([dataset.sequences[i].motion for i in approach_index],
                                      [dataset.sequences[i].obj for i in approach_index], dataset.config.action,
                                      max_frames=model_config.max_frames, n_object_points=config.n_object_points,
@@ -415,7 +499,8 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
         centres = torch.as_tensor(np.stack([_object_centre(obj) for obj in objects]))
         positions_end = (last[:, :2] - centres).norm(dim=-1).numpy()
         for name, (ms, objs) in parts.items():
-            scores = evaluate_motions(ms, objs, dataset.anchors, n_approach, config.n_object_points, config.seed)
+            scores = evaluate_motions(ms, objs, dataset.anchors, n_approach, config.n_object_points,
+                                      config.seed).as_dict()
             if name == "scenes":
                 scores["final_distance_positions"] = positions_end[:len(scenes)]
             elif name == "training":
@@ -427,13 +512,13 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
            "evaluation": dataclasses.asdict(config)}
     artifact = load_or_build(f"nifty_{dataset.config.action}_motion_model_evaluation", key, build,
                              code=mm.model_code() + (sys.modules[__name__], body_module, metrics))
-    result = {"n_approach": artifact["n_approach"], "training_index": training_index, "test_scenes": scenes,
-              "distance_range": distance_range}
     betas = {"scenes": [s.start.betas for s in scenes], "training": [s.motion.betas for s in training]}
+    sets = {}
     for name, part in artifact["sets"].items():
         motions = [s.motion for s in training] if name == "data" else _payload_motions(part, betas[name])
-        result[name] = {"motions": motions, "metrics": part["metrics"]}
-    return result
+        sets[name] = ScoredMotions(motions, MotionScores(**part["metrics"]))
+    return MotionModelEvaluation(n_approach=int(artifact["n_approach"]), training_index=training_index,
+                                 test_scenes=scenes, distance_range=distance_range, **sets)
 
 
 def build_evaluation(data_config, model_config, config: Optional[EvaluationConfig] = None, device="cpu") -> None:

@@ -44,13 +44,15 @@ from torch import nn
 
 from .._validate import as_tensor, check_choice, check_shape
 from .. import metrics
-from ..infra import TrainerConfig, TrainResult, by_scale, load_or_build, single_threaded, state_dict_to_cpu, train
+from ..infra import TrainedModel, TrainResult, load_or_build, single_threaded, state_dict_to_cpu, trainer_config
+from ..infra.presets import scaled_config
 from ..nn import cvae as cvae_module
 from ..nn import diffusion as diffusion_module
 from ..nn import pointnet as pointnet_module
 from ..nn import transformer as transformer_module
 from ..nn.cvae import MLP
-from ..nn.diffusion import NoiseSchedule, classifier_free_x0, cosine_schedule, sample, training_loss
+from ..nn.diffusion import (NoiseSchedule, SamplingRecord, classifier_free_x0, cosine_schedule, sample,
+                            sample_with_record, train_denoiser)
 from ..nn.pointnet import PointNetEncoder
 from ..nn.transformer import TransformerDenoiser
 from .. import world as world_module
@@ -68,6 +70,7 @@ __all__ = [
     "CONDITION_KEYS",
     "OBJECT_POSE_SIZE",
     "MotionModelConfig",
+    "MOTION_MODEL_SCALES",
     "motion_model_config",
     "canonical_from_world_matrix",
     "interaction_condition",
@@ -78,6 +81,7 @@ __all__ = [
     "trained_motion_model",
     "model_code",
     "sample_motions",
+    "sample_motions_with_record",
     "states_to_motions",
     "final_pelvis_distance",
     "anchor_skeleton_distance",
@@ -96,6 +100,8 @@ _STD_FLOOR = 1e-2  # features (nearly) constant in the data are scaled by at mos
 @dataclass(frozen=True)
 class MotionModelConfig:
     """The motion diffusion model and its training (see the module docstring for the scaling).
+
+    The defaults are the ``toy`` preset; :func:`motion_model_config` gives every scale.
 
     Attributes:
         action: ``"sit"`` or ``"lift"`` (NIFTY trains one model per action).
@@ -157,24 +163,26 @@ class MotionModelConfig:
         return cosine_schedule(self.diffusion_steps)
 
 
-def motion_model_config(action: str = "sit", scale: str = "toy", **overrides) -> MotionModelConfig:
-    """The preset for ``scale``: ``toy`` (≤ 1 min on a 2-core CPU), ``small``, ``paper`` (NIFTY's sizes).
+# What the larger scales change from the defaults (the toy preset); ``paper`` is NIFTY's Appendix B.
+MOTION_MODEL_SCALES = {
+    "small": {"max_frames": 151, "width": 256, "layers": 4, "dropout": 0.1, "n_points": 1024,
+              "pointnet_hidden": (64, 128, 256), "diffusion_steps": 1000, "steps": 30000, "batch_size": 32,
+              "lr": 2e-4, "warmup_steps": 500},
+    "paper": {"max_frames": 150, "width": 512, "layers": 8, "dropout": 0.1, "n_points": 5000,
+              "pointnet_hidden": (64, 128, 1024), "diffusion_steps": 1000, "steps": 600_000, "batch_size": 32,
+              "lr": 1e-4, "lr_schedule": "constant", "warmup_steps": 0, "grad_clip": None},
+}
+
+
+def motion_model_config(action: str, scale: str = "toy", **overrides) -> MotionModelConfig:
+    """The preset for ``action`` and ``scale``: ``toy`` (≤ 1 min on a 2-core CPU), ``small``,
+    ``paper`` (NIFTY's sizes).
 
     Fields can be overridden by keyword (``motion_model_config("sit", "toy", steps=200)``).
     """
     check_choice(action, ("sit", "lift"), "action")
-    base = by_scale(
-        scale,
-        toy=MotionModelConfig(action=action),
-        small=MotionModelConfig(action=action, max_frames=151, width=256, layers=4, dropout=0.1, n_points=1024,
-                                pointnet_hidden=(64, 128, 256), diffusion_steps=1000, steps=30000,
-                                batch_size=32, lr=2e-4, warmup_steps=500),
-        paper=MotionModelConfig(action=action, max_frames=150, width=512, layers=8, dropout=0.1, n_points=5000,
-                                pointnet_hidden=(64, 128, 1024), diffusion_steps=1000, steps=600_000,
-                                batch_size=32, lr=1e-4, lr_schedule="constant", warmup_steps=0,
-                                grad_clip=None),
-    )
-    return dataclasses.replace(base, **overrides)
+    return scaled_config(MotionModelConfig, scale, MOTION_MODEL_SCALES, overrides,
+                         factory="motion_model_config", fixed={"action": action})
 
 
 # --------------------------------------------------------------------------- tensorisation
@@ -471,27 +479,8 @@ def train_motion_model(tensors: InteractionTensors, config: MotionModelConfig, d
     model = build_motion_model(config, mean, std)
     data = model.normalise(tensors.states)
     conditions = tensors.condition()
-    schedule = config.noise_schedule()
-    trainer = TrainerConfig(steps=config.steps, batch_size=config.batch_size, lr=config.lr,
-                            lr_schedule=config.lr_schedule, warmup_steps=min(config.warmup_steps, config.steps),
-                            grad_clip=config.grad_clip, device=str(device), progress=progress, seed=config.seed,
-                            optimizer="adamw")
-    schedules = {}  # the schedule moved to the training device once
-
-    def sample_batch(step: int, generator: torch.Generator):
-        index = torch.randint(0, len(tensors), (config.batch_size,), generator=generator)
-        return {"x0": data[index], "cond": {name: value[index] for name, value in conditions.items()},
-                "seed": torch.randint(0, 2**62, (1,), generator=generator)}
-
-    def loss_fn(net, batch):
-        where = batch["x0"].device
-        if where not in schedules:
-            schedules[where] = schedule.to(where)
-        generator = torch.Generator(device=where).manual_seed(int(batch["seed"]))
-        return training_loss(net, batch["x0"], batch["cond"], schedules[where], generator=generator,
-                             p_uncond=config.p_uncond)
-
-    result = train(model, sample_batch, loss_fn, trainer)
+    result = train_denoiser(model, data, conditions, config.noise_schedule(),
+                            trainer_config(config, device=device, progress=progress), p_uncond=config.p_uncond)
     return model.eval(), result
 
 
@@ -511,7 +500,8 @@ def trained_motion_model(dataset, config: MotionModelConfig, device="cpu", progr
         device: where to train (the returned model is on the CPU).
         progress: show a progress bar while training.
     Returns:
-        ``(model, info)``: the model in eval mode and ``{"losses", "seconds", "n_sequences"}``.
+        a :class:`~hoi_tutorial.infra.TrainedModel`: the model in eval mode on the CPU, its losses and
+        training seconds, and ``details["n_sequences"]``, the training sequences.
     """
     if config.action != dataset.config.action:
         raise ValueError(f"config.action: {config.action!r}, but the dataset is {dataset.config.action!r}")
@@ -526,8 +516,8 @@ def trained_motion_model(dataset, config: MotionModelConfig, device="cpu", progr
     artifact = load_or_build(f"nifty_{config.action}_motion_model", key, build, code=model_code())
     model = NiftyMotionModel(config)
     model.load_state_dict(artifact["state"])
-    info = {name: value for name, value in artifact.items() if name != "state"}
-    return model.eval(), info
+    return TrainedModel(model.eval(), artifact["losses"], artifact["seconds"],
+                        {"n_sequences": artifact["n_sequences"]})
 
 
 # --------------------------------------------------------------------------- sampling
@@ -541,7 +531,7 @@ def _repeat_rows(value: torch.Tensor, times: int) -> torch.Tensor:
 def sample_motions(model: NiftyMotionModel, cond: dict, config: Optional[MotionModelConfig] = None, *,
                    generator: torch.Generator, guidance: Optional[Callable[[torch.Tensor], torch.Tensor]] = None,
                    alpha=0.0, n_samples: int = 1, guidance_scale: Optional[float] = None,
-                   return_trajectory: bool = False, device=None):
+                   device=None) -> torch.Tensor:
     """Draw motions for a batch of conditions (NIFTY §3.1 "Sampling and Guidance").
 
     Ancestral sampling from ``K`` steps with the classifier-free guided
@@ -559,14 +549,34 @@ def sample_motions(model: NiftyMotionModel, cond: dict, config: Optional[MotionM
         alpha: the guidance step size α (or a function ``k -> α``).
         n_samples: samples per condition (NIFTY: 10, the best kept by the guidance objective).
         guidance_scale: overrides ``config.guidance_scale`` (``s``; 1 = conditional, 0 = unconditional).
-        return_trajectory: also return the sampler's per-step record (standardised space).
         device: where to sample.
     Returns:
         ``(B·n_samples, T, 336)`` states (un-normalised, each in its scene's canonical frame, on the
-        CPU), condition-major: row ``i·n_samples + j`` is sample ``j`` of condition ``i``; with
-        ``return_trajectory``, ``(states, record)``. Runs on one CPU thread (faster for these
-        small batches on a two-core machine).
+        CPU), condition-major: row ``i·n_samples + j`` is sample ``j`` of condition ``i``. Runs on one
+        CPU thread (faster for these small batches on a two-core machine).
+        :func:`sample_motions_with_record` also keeps every denoising step.
     """
+    return _sample_motions(model, cond, config, generator, guidance, alpha, n_samples, guidance_scale, device,
+                           with_record=False)
+
+
+@single_threaded
+def sample_motions_with_record(model: NiftyMotionModel, cond: dict, config: Optional[MotionModelConfig] = None, *,
+                               generator: torch.Generator, guidance=None, alpha=0.0, n_samples: int = 1,
+                               guidance_scale: Optional[float] = None, device=None) -> SamplingRecord:
+    """:func:`sample_motions`, keeping each denoising step (for plots).
+
+    Same arguments and noise draws as :func:`sample_motions`. Returns a
+    :class:`~hoi_tutorial.nn.diffusion.SamplingRecord` whose ``sample`` is the states
+    :func:`sample_motions` returns (un-normalised, CPU) and whose per-step ``x_k`` and ``x0_hat``
+    are in the model's standardised space (``model.denormalise`` maps them to states).
+    """
+    return _sample_motions(model, cond, config, generator, guidance, alpha, n_samples, guidance_scale, device,
+                           with_record=True)
+
+
+def _sample_motions(model, cond, config, generator, guidance, alpha, n_samples, guidance_scale, device,
+                    with_record: bool):
     if not isinstance(model, NiftyMotionModel):
         raise TypeError(f"model: expected a NiftyMotionModel, got {type(model).__name__}")
     config = model.config if config is None else config
@@ -591,12 +601,12 @@ def sample_motions(model: NiftyMotionModel, cond: dict, config: Optional[MotionM
         def objective(x0_hat):
             return guidance(model.denormalise(x0_hat))
 
-    out = sample(x0_fn, shape, config.noise_schedule().to(device), generator=generator, guidance=objective,
-                 alpha=alpha, return_trajectory=return_trajectory, device=device)
+    run = sample_with_record if with_record else sample
+    out = run(x0_fn, shape, config.noise_schedule().to(device), generator=generator, guidance=objective,
+              alpha=alpha, device=device)
     model.train(was_training)
-    if return_trajectory:
-        x, record = out
-        return model.denormalise(x).detach().cpu(), record
+    if with_record:
+        return dataclasses.replace(out, sample=model.denormalise(out.sample).detach().cpu())
     return model.denormalise(out).detach().cpu()
 
 

@@ -32,6 +32,7 @@ from torch import nn
 
 from .._validate import check_shape
 from ..infra import TrainerConfig, single_threaded, train
+from ..infra.presets import scaled_config
 from ..nn.cvae import MLP, gaussian_kl
 from ..world.features import feature_layout
 from ..world.kinematics import forward_kinematics
@@ -50,6 +51,8 @@ __all__ = [
     "STATE_SIZE",
     "STEP_SIZE",
     "PriorConfig",
+    "PRIOR_SCALES",
+    "prior_config",
     "ReversePrior",
     "PoseTrack",
     "heading_state",
@@ -194,9 +197,11 @@ def _index(track: PoseTrack, idx) -> PoseTrack:
     return PoseTrack(track.local_rotations[idx], track.root_position[idx], track.joints[idx])
 
 
-@dataclass
+@dataclass(frozen=True)
 class PriorConfig:
     """Sizes and training settings of the reverse prior (HuMoR values in brackets).
+
+    The defaults are the ``toy`` preset; :func:`prior_config` gives every scale.
 
     Attributes:
         latent: size of ``z`` [48].
@@ -217,7 +222,7 @@ class PriorConfig:
     width: int = 256
     depth: int = 2
     window: int = 8
-    steps: int = 1500
+    steps: int = 800
     batch_size: int = 64
     lr: float = 1e-3
     kl_weight: float = 3e-3
@@ -225,6 +230,19 @@ class PriorConfig:
     input_noise: float = 0.02
     leg_weight: float = 1000.0
     seed: int = 0
+
+
+# What the larger scales change from the defaults (the toy preset); ``paper`` uses HuMoR's sizes.
+PRIOR_SCALES = {
+    "small": {"latent": 48, "width": 512, "steps": 10000},
+    "paper": {"latent": 48, "width": 1024, "steps": 100000},
+}
+
+
+def prior_config(scale: str = "toy", **overrides) -> PriorConfig:
+    """The reverse prior's preset for ``scale`` (``toy``: trains in under a minute on a CPU),
+    fields overridable by keyword (``prior_config("small", steps=500)``)."""
+    return scaled_config(PriorConfig, scale, PRIOR_SCALES, overrides, factory="prior_config")
 
 
 class ReversePrior(nn.Module):

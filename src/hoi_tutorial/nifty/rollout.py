@@ -34,6 +34,7 @@ import torch
 
 from .. import metrics
 from ..infra import single_threaded
+from ..infra.presets import scaled_config
 from ..world.body import body_vertices, toe_vertices
 from ..world.kinematics import forward_kinematics
 from ..world.motion import FPS, Motion, action_id
@@ -44,7 +45,10 @@ from .motion_prior import PoseTrack, ReversePrior, rollout
 
 __all__ = [
     "TreeConfig",
+    "TREE_SCALES",
+    "tree_config",
     "PruneConfig",
+    "prune_config",
     "JOINT_ANGLE_LIMITS",
     "TreeNode",
     "MotionTree",
@@ -62,9 +66,11 @@ __all__ = [
 ]
 
 
-@dataclass
+@dataclass(frozen=True)
 class TreeConfig:
     """Settings of Algorithm 1.
+
+    The defaults are the ``toy`` preset; :func:`tree_config` gives every scale.
 
     Attributes:
         max_depth: depth of the tree in nodes (NIFTY: 7; toy preset: 4).
@@ -79,14 +85,27 @@ class TreeConfig:
             nearer than this to the object (NIFTY: 1 m; see :func:`start_distance`).
     """
 
-    max_depth: int = 3
+    max_depth: int = 4
     frames_per_node: int = 30
     n_tries: int = 20
     branching_shallow: int = 6
     branching_deep: int = 2
     tries_per_chunk: int = 4
     temperature: float = 1.0
-    min_start_distance: float = 1.0
+    min_start_distance: float = 0.75
+
+
+# What the larger scales change from the defaults (the toy preset). Trees of 4 s instead of 7 s reach
+# less far from the seat: at toy the start-distance filter scales with them.
+TREE_SCALES = {
+    "small": {"max_depth": 5, "min_start_distance": 1.0},
+    "paper": {"max_depth": 7, "min_start_distance": 1.0},
+}
+
+
+def tree_config(scale: str = "toy", **overrides) -> TreeConfig:
+    """Algorithm 1's settings for ``scale`` (``paper``: NIFTY's depth 7), fields overridable."""
+    return scaled_config(TreeConfig, scale, TREE_SCALES, overrides, factory="tree_config")
 
 
 def branching_factor(depth: int, config: TreeConfig) -> int:
@@ -109,9 +128,11 @@ JOINT_ANGLE_LIMITS = {
 }
 
 
-@dataclass
+@dataclass(frozen=True)
 class PruneConfig:
     """Thresholds of PruneCheck (NIFTY gives the categories, not the numbers; these are ours).
+
+    The same at every scale (:func:`prune_config`).
 
     Attributes:
         penetration: metres a body vertex may go into the object beyond the anchor's own depth.
@@ -120,7 +141,8 @@ class PruneConfig:
         sinking: metres the lowest vertex may go below the ground.
         knee_hyperextension: degrees a knee may bend backwards.
         stationary: metres: the mean joint displacement over the node must exceed this.
-        joint_limits: ``(22,)`` radians, the largest rotation of each joint relative to its parent;
+        joint_limits: 22 radians, the largest rotation of each joint relative to its parent (a
+            ``(22,)`` tensor is stored as a tuple of floats, so the configuration stays immutable);
             ``None`` uses ``JOINT_ANGLE_LIMITS``. :func:`joint_limits_from` derives them from mocap.
         skating: m/s, the largest foot-skating score (NIFTY §4.2's metric) either toe may have over
             the node; ``None`` skips the check. :func:`skating_limit_from` derives it from mocap.
@@ -139,8 +161,20 @@ class PruneConfig:
     stationary: float = 0.05
     frame_stride: int = 2
     vertex_stride: int = 2
-    joint_limits: Optional[torch.Tensor] = None
+    joint_limits: Optional[tuple] = None
     skating: Optional[float] = None
+
+    def __post_init__(self):
+        if self.joint_limits is not None:
+            limits = tuple(float(v) for v in torch.as_tensor(self.joint_limits).reshape(-1).tolist())
+            if len(limits) != len(JOINT_NAMES):
+                raise ValueError(f"joint_limits: expected {len(JOINT_NAMES)} values, got {len(limits)}")
+            object.__setattr__(self, "joint_limits", limits)
+
+
+def prune_config(scale: str = "toy", **overrides) -> PruneConfig:
+    """PruneCheck's thresholds (no scale changes them), fields overridable."""
+    return scaled_config(PruneConfig, scale, {}, overrides, factory="prune_config")
 
 
 # PruneCheck's failure reasons, in the order they are reported.
@@ -232,7 +266,8 @@ def prune_check(segment: PoseTrack, betas: torch.Tensor, objects: Sequence, anch
 
     # Unnatural poses: joint rotations beyond their limits, or knees bent backwards.
     angles = matrix_to_axis_angle(segment.local_rotations)  # (N, F, 22, 3)
-    limits = _LIMITS if config.joint_limits is None else config.joint_limits
+    # float64 holds the limits exactly, whatever the dtype they were derived in.
+    limits = _LIMITS if config.joint_limits is None else torch.tensor(config.joint_limits, dtype=torch.float64)
     too_far = (angles.norm(dim=-1) > limits).any(dim=-1).any(dim=-1)
     # Knees flex about the body's lateral axis (local -x rotates the shin backwards = flexion).
     knee_back = angles[:, :, _KNEES, 0].amax(dim=(1, 2)) > math.radians(config.knee_hyperextension)

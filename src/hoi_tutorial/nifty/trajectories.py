@@ -18,7 +18,9 @@ mirrored left-right (x → −x).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
+import sys
 from dataclasses import dataclass
 from typing import Callable, Optional
 
@@ -26,12 +28,15 @@ import numpy as np
 import torch
 
 from .._validate import as_tensor, check_shape
-from ..infra.presets import by_scale
+from ..infra.presets import scaled_config
 from ..infra.seeding import rng as make_rng
 from ..infra.device import single_threaded
-from ..infra.training import TrainerConfig, train
+from ..infra.cache import load_or_build, state_dict_to_cpu
+from ..infra.training import TrainedModel, TrainResult, trainer_config
+from ..nn import denoisers, diffusion
 from ..nn.denoisers import MLPDenoiser
-from ..nn.diffusion import NoiseSchedule, cosine_schedule, sample, training_loss
+from ..nn.diffusion import NoiseSchedule, SamplingRecord, cosine_schedule, sample, sample_with_record, train_denoiser
+from ..world.mocap import gait
 from ..world.features import canonical_transform
 from ..world.mocap.gait import walk_path
 from ..world.motion import FPS
@@ -39,6 +44,7 @@ from ..world.rotations import rotation_about_z
 
 __all__ = [
     "WalkDataConfig",
+    "WALK_DATA_SCALES",
     "walk_data_config",
     "random_walk_waypoints",
     "canonical_pelvis_trajectory",
@@ -46,10 +52,14 @@ __all__ = [
     "dct_basis",
     "TrajectoryCodec",
     "TrajectoryModelConfig",
+    "TRAJECTORY_MODEL_SCALES",
     "trajectory_model_config",
     "build_trajectory_denoiser",
     "train_trajectory_denoiser",
+    "walk_trajectories",
+    "trained_trajectory_denoiser",
     "sample_walks",
+    "sample_walks_with_record",
     "end_position_objective",
     "path_statistics",
 ]
@@ -61,6 +71,8 @@ __all__ = [
 @dataclass(frozen=True)
 class WalkDataConfig:
     """How the toy walking trajectories are made.
+
+    The defaults are the ``toy`` preset; :func:`walk_data_config` gives every scale.
 
     Attributes:
         n_clips: walks generated (the data set holds twice as many paths: each is also mirrored).
@@ -85,11 +97,16 @@ class WalkDataConfig:
             raise ValueError(f"frames: expected an int >= 2, got {self.frames!r}")
 
 
-def walk_data_config(scale: str, **overrides) -> WalkDataConfig:
+# What the larger scales change from the defaults (the toy preset); NIFTY's motions are 150 frames.
+WALK_DATA_SCALES = {
+    "small": {"n_clips": 3000, "frames": 120},
+    "paper": {"n_clips": 10000, "frames": 150},
+}
+
+
+def walk_data_config(scale: str = "toy", **overrides) -> WalkDataConfig:
     """The data configuration of a scale preset (``"toy"``: 600 walks of 2 s), fields overridable."""
-    base = by_scale(scale, toy=WalkDataConfig(), small=WalkDataConfig(n_clips=3000, frames=120),
-                    paper=WalkDataConfig(n_clips=10000, frames=150))
-    return WalkDataConfig(**{**base.__dict__, **overrides})
+    return scaled_config(WalkDataConfig, scale, WALK_DATA_SCALES, overrides, factory="walk_data_config")
 
 
 def random_walk_waypoints(generator: np.random.Generator, config: WalkDataConfig) -> np.ndarray:
@@ -228,11 +245,14 @@ class TrajectoryCodec:
 class TrajectoryModelConfig:
     """The trajectory denoiser and its training.
 
+    The defaults are the ``toy`` preset; :func:`trajectory_model_config` gives every scale.
+
     Attributes:
         n_coefficients: smooth-basis coefficients per coordinate (:class:`TrajectoryCodec`).
         diffusion_steps: K (NIFTY: 1000; 100 at ``toy``).
         width, depth, time_embed_dim: the :class:`MLPDenoiser` over the flattened coefficients.
-        steps, batch_size, lr: optimisation (AdamW, cosine decay after a short warm-up).
+        steps, batch_size, lr: optimisation (AdamW).
+        lr_schedule, warmup_steps: the learning-rate schedule after a linear warm-up (cosine decay).
         seed: seeds the initial weights and the batches.
     """
 
@@ -244,6 +264,8 @@ class TrajectoryModelConfig:
     steps: int = 3000
     batch_size: int = 128
     lr: float = 1e-3
+    lr_schedule: str = "cosine"
+    warmup_steps: int = 100
     seed: int = 0
 
     def noise_schedule(self) -> NoiseSchedule:
@@ -251,14 +273,17 @@ class TrajectoryModelConfig:
         return cosine_schedule(self.diffusion_steps)
 
 
-def trajectory_model_config(scale: str, **overrides) -> TrajectoryModelConfig:
+# What the larger scales change from the defaults (the toy preset).
+TRAJECTORY_MODEL_SCALES = {
+    "small": {"n_coefficients": 32, "diffusion_steps": 1000, "width": 512, "depth": 4, "steps": 30000},
+    "paper": {"n_coefficients": 40, "diffusion_steps": 1000, "width": 512, "depth": 6, "steps": 100000},
+}
+
+
+def trajectory_model_config(scale: str = "toy", **overrides) -> TrajectoryModelConfig:
     """The model configuration of a scale preset, fields overridable."""
-    base = by_scale(scale, toy=TrajectoryModelConfig(),
-                    small=TrajectoryModelConfig(n_coefficients=32, diffusion_steps=1000, width=512, depth=4,
-                                                steps=30000),
-                    paper=TrajectoryModelConfig(n_coefficients=40, diffusion_steps=1000, width=512, depth=6,
-                                                steps=100000))
-    return TrajectoryModelConfig(**{**base.__dict__, **overrides})
+    return scaled_config(TrajectoryModelConfig, scale, TRAJECTORY_MODEL_SCALES, overrides,
+                         factory="trajectory_model_config")
 
 
 def build_trajectory_denoiser(config: TrajectoryModelConfig) -> MLPDenoiser:
@@ -275,49 +300,60 @@ def build_trajectory_denoiser(config: TrajectoryModelConfig) -> MLPDenoiser:
 
 @single_threaded  # a small MLP: one CPU thread is fastest
 def train_trajectory_denoiser(config: TrajectoryModelConfig, trajectories: torch.Tensor, device="cpu",
-                              progress: bool = False) -> dict:
+                              progress: bool = False) -> tuple[MLPDenoiser, TrajectoryCodec, TrainResult]:
     """Fit the codec and train the unconditional trajectory denoiser with the x0 loss (NIFTY §3.1).
 
     Args:
         config: a :class:`TrajectoryModelConfig`.
         trajectories: ``(N, T, 3)`` metres, canonical frame (:func:`make_walk_trajectories`).
-        device: where to train; the result is on the CPU.
+        device: where to train; the model stays there.
         progress: show a progress bar.
 
     Returns:
-        ``{"state": state_dict, "codec": TrajectoryCodec.state(), "losses": [float, ...]}``.
+        ``(model in eval mode, codec, TrainResult)``.
     """
     trajectories = as_tensor(trajectories, "trajectories")
     check_shape(trajectories, (None, None, 3), "trajectories")
     codec = TrajectoryCodec.fit(trajectories, config.n_coefficients)
-    data = codec.encode(trajectories)
-    schedule = config.noise_schedule()
     model = build_trajectory_denoiser(config)
-    trainer = TrainerConfig(steps=config.steps, batch_size=config.batch_size, lr=config.lr,
-                            lr_schedule="cosine", warmup_steps=min(100, config.steps), device=str(device),
-                            progress=progress, seed=config.seed)
-    schedules = {}  # the schedule moved to the training device once
+    result = train_denoiser(model, codec.encode(trajectories), None, config.noise_schedule(),
+                            trainer_config(config, device=device, progress=progress), p_uncond=0.0)
+    return model.eval(), codec, result
 
-    def sample_batch(step: int, generator: torch.Generator):
-        index = torch.randint(0, data.shape[0], (config.batch_size,), generator=generator)
-        return {"x0": data[index], "seed": torch.randint(0, 2**62, (1,), generator=generator)}
 
-    def loss_fn(net, batch):
-        where = batch["x0"].device
-        if where not in schedules:
-            schedules[where] = schedule.to(where)
-        generator = torch.Generator(device=where).manual_seed(int(batch["seed"]))
-        return training_loss(net, batch["x0"], None, schedules[where], generator=generator, p_uncond=0.0)
+def walk_trajectories(config: WalkDataConfig) -> torch.Tensor:
+    """:func:`make_walk_trajectories` through the artifact cache (made once, then loaded)."""
+    return load_or_build("walk_trajectories", config, lambda: make_walk_trajectories(config),
+                         code=(sys.modules[__name__], gait))
 
-    result = train(model, sample_batch, loss_fn, trainer)
-    state = {name: value.detach().cpu().clone() for name, value in model.state_dict().items()}
-    return {"state": state, "codec": codec.state(), "losses": [float(v) for v in result.losses]}
+
+def trained_trajectory_denoiser(walk_config: WalkDataConfig, config: TrajectoryModelConfig, device="cpu",
+                                progress: bool = False) -> TrainedModel:
+    """The trajectory denoiser trained on the walks of ``walk_config``, once, then from the cache.
+
+    Returns:
+        a :class:`~hoi_tutorial.infra.TrainedModel` (the denoiser in eval mode on the CPU, its
+        losses and training seconds) whose ``details["codec"]`` is the :class:`TrajectoryCodec`
+        its samples are decoded with.
+    """
+    def build():
+        model, codec, result = train_trajectory_denoiser(config, walk_trajectories(walk_config), device=device,
+                                                         progress=progress)
+        return {"state": state_dict_to_cpu(model), "codec": codec.state(), "losses": torch.tensor(result.losses),
+                "seconds": float(result.seconds)}
+
+    artifact = load_or_build("walk_trajectory_denoiser", {"data": walk_config, "model": config}, build,
+                             code=(sys.modules[__name__], gait, denoisers, diffusion))
+    model = build_trajectory_denoiser(config)
+    model.load_state_dict(artifact["state"])
+    return TrainedModel(model.eval(), artifact["losses"], artifact["seconds"],
+                        {"codec": TrajectoryCodec(**artifact["codec"])})
 
 
 @single_threaded
 def sample_walks(model: torch.nn.Module, codec: TrajectoryCodec, schedule: NoiseSchedule, n: int, *,
                  generator: torch.Generator, objective: Optional[Callable[[torch.Tensor], torch.Tensor]] = None,
-                 alpha: float = 0.0, return_trajectory: bool = False, device=None):
+                 alpha: float = 0.0, device=None) -> torch.Tensor:
     """Draw walks from the trajectory model, optionally guided (NIFTY Eq. 4).
 
     ``objective`` is written in metres; it is composed with :meth:`TrajectoryCodec.decode`, so the
@@ -332,23 +368,36 @@ def sample_walks(model: torch.nn.Module, codec: TrajectoryCodec, schedule: Noise
         generator: ``torch.Generator`` for all noise.
         objective: ``G: trajectories (B, T, 3) metres -> (B,)``, or ``None`` for unguided samples.
         alpha: guidance step size α.
-        return_trajectory: also return the sampler's per-step record (in codes).
         device: where to sample (default: the model's device).
 
     Returns:
-        ``(n, T, 3)`` walks in metres (CPU), or ``(walks, record)``.
+        ``(n, T, 3)`` walks in metres (CPU).
     """
+    return _sample_walks(model, codec, schedule, n, generator, objective, alpha, device, with_record=False)
+
+
+@single_threaded
+def sample_walks_with_record(model: torch.nn.Module, codec: TrajectoryCodec, schedule: NoiseSchedule, n: int, *,
+                             generator: torch.Generator, objective=None, alpha: float = 0.0,
+                             device=None) -> SamplingRecord:
+    """:func:`sample_walks`, keeping each denoising step: a
+    :class:`~hoi_tutorial.nn.diffusion.SamplingRecord` whose ``sample`` is the walks in metres
+    (CPU) and whose per-step ``x_k``, ``x0_hat`` are codes (``codec.decode`` maps them to metres)."""
+    return _sample_walks(model, codec, schedule, n, generator, objective, alpha, device, with_record=True)
+
+
+def _sample_walks(model, codec, schedule, n, generator, objective, alpha, device, with_record: bool):
     device = device or next(model.parameters()).device
     shape = (int(n),) + codec.shape
     guidance = None
     if objective is not None:
         def guidance(x0_hat):
             return objective(codec.decode(x0_hat))
-    out = sample(lambda x, k: model(x, k, None, None), shape, schedule.to(device), generator=generator,
-                 guidance=guidance, alpha=alpha, return_trajectory=return_trajectory, device=device)
-    if return_trajectory:
-        x, record = out
-        return codec.decode(x).cpu(), record
+    run = sample_with_record if with_record else sample
+    out = run(lambda x, k: model(x, k, None, None), shape, schedule.to(device), generator=generator,
+              guidance=guidance, alpha=alpha, device=device)
+    if with_record:
+        return dataclasses.replace(out, sample=codec.decode(out.sample).cpu())
     return codec.decode(out).cpu()
 
 

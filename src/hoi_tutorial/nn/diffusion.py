@@ -24,6 +24,7 @@ from typing import Callable, Iterable, Optional, Union
 import torch
 
 from .._validate import check_shape
+from ..infra.training import TrainerConfig, TrainResult, train
 
 __all__ = [
     "NoiseSchedule",
@@ -35,8 +36,11 @@ __all__ = [
     "classifier_free_x0",
     "guided_x0",
     "sample",
+    "SamplingRecord",
+    "sample_with_record",
     "best_of_n",
     "training_loss",
+    "train_denoiser",
 ]
 
 
@@ -328,9 +332,8 @@ def sample(model_x0_fn: Callable[[torch.Tensor, torch.Tensor], torch.Tensor], sh
            alpha: Union[float, Callable[[int], float]] = 0.0,
            guidance_steps: Optional[Iterable[int]] = None,
            x_init: Optional[torch.Tensor] = None,
-           return_trajectory: bool = False,
            inpaint=None,
-           device=None):
+           device=None) -> torch.Tensor:
     """Ancestral DDPM sampling with the x0-parameterisation, from ``k = K-1`` down to ``k = 0``.
 
     Each step: ``x̂_0 = model_x0_fn(x_k, k)``; optionally guided with NIFTY Eq. 4 (``guided_x0``);
@@ -348,16 +351,59 @@ def sample(model_x0_fn: Callable[[torch.Tensor, torch.Tensor], torch.Tensor], sh
         alpha: guidance step size α, or a function ``k -> α``.
         guidance_steps: steps k that get guidance; default every step but the last (k ≥ 1).
         x_init: ``(B, ...)`` the starting noise x_{K-1}; default standard normal from ``generator``.
-        return_trajectory: also return the per-step record (for plots).
         inpaint: ``(mask, values)``: where the bool ``mask`` (broadcastable to ``shape``) is True,
             x̂0 is replaced by ``values`` at every step (MDM-style), so the sample keeps them.
         device: where to sample; default the device of ``x_init``, else of ``schedule``.
 
     Returns:
-        ``x_0: (B, ...)``, or ``(x_0, trajectory)`` with ``trajectory`` a dict of lists, one entry per
-        step in sampling order: ``"k"`` (int), ``"x_k"`` (the step's input), ``"x0_hat"`` (after
-        guidance and inpainting) and ``"objective"`` (``(B,)`` G at the unguided x̂0, or ``None``).
+        ``x_0: (B, ...)``. :func:`sample_with_record` also returns every step's input and x̂0.
     """
+    return _ancestral_sampling(model_x0_fn, shape, schedule, generator, guidance, alpha, guidance_steps, x_init,
+                               inpaint, device, record=None)
+
+
+@dataclass
+class SamplingRecord:
+    """A sampling run step by step (for plots), as :func:`sample_with_record` returns it.
+
+    Attributes:
+        sample: ``(B, ...)`` the final sample x_0.
+        k: the steps in sampling order, ``K-1 … 0``.
+        x_k: per step, ``(B, ...)`` the step's noisy input.
+        x0_hat: per step, ``(B, ...)`` the clean prediction after guidance and inpainting.
+        objective: per step, ``(B,)`` the guidance objective G at the unguided x̂0, or ``None`` for a
+            step without guidance.
+    """
+
+    sample: torch.Tensor
+    k: list
+    x_k: list
+    x0_hat: list
+    objective: list
+
+    def at(self, k: int) -> int:
+        """The index into the per-step lists of step ``k``."""
+        if k not in self.k:
+            raise ValueError(f"k: expected one of the recorded steps {self.k[0]} … {self.k[-1]}, got {k!r}")
+        return self.k.index(k)
+
+
+def sample_with_record(model_x0_fn, shape, schedule: NoiseSchedule, *, generator: torch.Generator,
+                       guidance=None, alpha=0.0, guidance_steps=None, x_init=None, inpaint=None,
+                       device=None) -> SamplingRecord:
+    """:func:`sample`, keeping each step's input ``x_k``, prediction ``x̂_0`` and objective.
+
+    Same arguments and the same noise draws as :func:`sample` (for one generator seed the final
+    samples are identical); returns a :class:`SamplingRecord`.
+    """
+    record = {"k": [], "x_k": [], "x0_hat": [], "objective": []}
+    x = _ancestral_sampling(model_x0_fn, shape, schedule, generator, guidance, alpha, guidance_steps, x_init,
+                            inpaint, device, record=record)
+    return SamplingRecord(sample=x, **record)
+
+
+def _ancestral_sampling(model_x0_fn, shape, schedule, generator, guidance, alpha, guidance_steps, x_init,
+                        inpaint, device, record: Optional[dict]) -> torch.Tensor:
     generator = _require_generator(generator)
     shape = tuple(int(s) for s in shape)
     if device is None:
@@ -376,7 +422,6 @@ def sample(model_x0_fn: Callable[[torch.Tensor, torch.Tensor], torch.Tensor], sh
         mask = torch.as_tensor(mask, dtype=torch.bool, device=device)
         values = torch.as_tensor(values, dtype=dtype, device=device)
         torch.broadcast_shapes(mask.shape, values.shape, shape)  # raises on a mismatch
-    record = {"k": [], "x_k": [], "x0_hat": [], "objective": []}
     for k in range(K - 1, -1, -1):
         k_batch = torch.full((shape[0],), k, dtype=torch.int64, device=device)
         values_g = None
@@ -389,7 +434,7 @@ def sample(model_x0_fn: Callable[[torch.Tensor, torch.Tensor], torch.Tensor], sh
         x0_hat = x0_hat.detach()
         if inpaint is not None:
             x0_hat = torch.where(mask, values, x0_hat)
-        if return_trajectory:
+        if record is not None:
             record["k"].append(k)
             record["x_k"].append(x.clone())
             record["x0_hat"].append(x0_hat.clone())
@@ -399,7 +444,7 @@ def sample(model_x0_fn: Callable[[torch.Tensor, torch.Tensor], torch.Tensor], sh
             x = mean + torch.exp(0.5 * log_variance) * _randn(shape, generator, device, dtype)
         else:
             x = mean
-    return (x, record) if return_trajectory else x
+    return x
 
 
 def best_of_n(samples: torch.Tensor, objective_values: torch.Tensor, lower_is_better: bool = True):
@@ -470,3 +515,51 @@ def training_loss(model: Callable, x0: torch.Tensor, cond, schedule: NoiseSchedu
     if float(count) == 0.0:
         raise ValueError("mask: expected at least one frame marked True")
     return (squared * weights).sum() / count
+
+
+def train_denoiser(model: torch.nn.Module, x0: torch.Tensor, cond, schedule: NoiseSchedule,
+                   config: TrainerConfig, *, p_uncond: float = 0.1) -> TrainResult:
+    """Fit a denoiser with the x0 loss (NIFTY §3.1) on a fixed data set: the training closure of every
+    diffusion model in the book.
+
+    Each step draws ``config.batch_size`` rows uniformly with replacement (the trainer's seeded
+    generator), then a seed for that step's k, noise and condition-dropout coin, and calls
+    :func:`training_loss`. The model is trained in place by :func:`hoi_tutorial.infra.train`.
+
+    Args:
+        model: ``model(x_k, k, cond, drop_cond) -> x0_hat``.
+        x0: ``(N, ...)`` the training data (already normalised as the model expects).
+        cond: ``None``, a ``(N, ...)`` tensor (e.g. class labels) or a dict of ``(N, ...)`` tensors,
+            indexed with the same rows as ``x0``.
+        schedule: the noise schedule (moved to the training device once).
+        config: the optimisation settings (see :func:`hoi_tutorial.infra.trainer_config`).
+        p_uncond: probability of dropping the condition (NIFTY and MDM: 0.1; 0 when unconditional).
+    Returns:
+        the :class:`~hoi_tutorial.infra.TrainResult`.
+    """
+    n = int(x0.shape[0])
+    if n < 1:
+        raise ValueError("x0: expected at least one training example")
+    rows = cond.values() if isinstance(cond, dict) else ([] if cond is None else [cond])
+    for value in rows:
+        if int(value.shape[0]) != n:
+            raise ValueError(f"cond: expected {n} rows as x0 has, got {int(value.shape[0])}")
+    schedules = {}  # the schedule moved to each training device once
+
+    def sample_batch(step: int, generator: torch.Generator):
+        index = torch.randint(0, n, (config.batch_size,), generator=generator)
+        if isinstance(cond, dict):
+            batch_cond = {name: value[index] for name, value in cond.items()}
+        else:
+            batch_cond = None if cond is None else cond[index]
+        return {"x0": x0[index], "cond": batch_cond, "seed": torch.randint(0, 2**62, (1,), generator=generator)}
+
+    def loss_fn(net, batch):
+        where = batch["x0"].device
+        if where not in schedules:
+            schedules[where] = schedule.to(where)
+        generator = torch.Generator(device=where).manual_seed(int(batch["seed"]))
+        return training_loss(net, batch["x0"], batch["cond"], schedules[where], generator=generator,
+                             p_uncond=p_uncond)
+
+    return train(model, sample_batch, loss_fn, config)

@@ -16,6 +16,7 @@ network serves classifier-free guidance and unconditional sampling.
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 from typing import Callable
 
@@ -23,12 +24,14 @@ import numpy as np
 import torch
 
 from .._validate import as_tensor, check_choice, check_shape
-from ..infra.presets import by_scale
+from ..infra.presets import scaled_config
 from ..infra.seeding import rng as make_rng
 from ..infra.device import single_threaded
-from ..infra.training import TrainerConfig, train
+from ..infra.cache import load_or_build, state_dict_to_cpu
+from ..infra.training import TrainedModel, TrainResult, trainer_config
+from . import denoisers, diffusion
 from .denoisers import MLPDenoiser
-from .diffusion import NoiseSchedule, cosine_schedule, linear_schedule, training_loss
+from .diffusion import NoiseSchedule, cosine_schedule, linear_schedule, train_denoiser
 
 __all__ = [
     "TOY2D_DISTRIBUTIONS",
@@ -44,9 +47,11 @@ __all__ = [
     "disc_objective",
     "box_objective",
     "Toy2DConfig",
+    "TOY2D_SCALES",
     "toy2d_config",
     "build_toy2d_denoiser",
     "train_toy2d_denoiser",
+    "trained_toy2d_denoiser",
 ]
 
 TOY2D_DISTRIBUTIONS = ("ring8", "moons_and_ring")
@@ -281,6 +286,8 @@ def box_objective(lo, hi) -> Callable[[torch.Tensor], torch.Tensor]:
 class Toy2DConfig:
     """Data, model and optimisation of the 2-D class-conditional denoiser.
 
+    The defaults are the ``toy`` preset; :func:`toy2d_config` gives every scale.
+
     Attributes:
         distribution: one of ``TOY2D_DISTRIBUTIONS``.
         n_train: training points drawn once (a fixed data set, as a real one would be).
@@ -289,7 +296,8 @@ class Toy2DConfig:
         width, depth, time_embed_dim: the :class:`MLPDenoiser`'s size.
         fourier_features, fourier_scale: random Fourier features of the input point (an MLP fed
             raw 2-D coordinates learns the sharp, many-lobed unconditional denoiser slowly).
-        steps, batch_size, lr: optimisation (AdamW, cosine decay after a short warm-up).
+        steps, batch_size, lr: optimisation (AdamW).
+        lr_schedule, warmup_steps: the learning-rate schedule after a linear warm-up (cosine decay).
         p_uncond: probability of dropping the label during training (NIFTY: 0.1).
         seed: seeds the data, the initial weights and the batches.
     """
@@ -304,6 +312,8 @@ class Toy2DConfig:
     steps: int = 4000
     batch_size: int = 256
     lr: float = 2e-3
+    lr_schedule: str = "cosine"
+    warmup_steps: int = 100
     p_uncond: float = 0.1
     seed: int = 0
     fourier_features: int = 64
@@ -319,19 +329,20 @@ class Toy2DConfig:
         return make(self.diffusion_steps)
 
 
-def toy2d_config(scale: str, **overrides) -> Toy2DConfig:
+# What the larger scales change from the defaults (the toy preset).
+TOY2D_SCALES = {
+    "small": {"width": 256, "depth": 4, "steps": 20000, "diffusion_steps": 1000},
+    "paper": {"width": 256, "depth": 4, "steps": 50000, "diffusion_steps": 1000, "n_train": 100000},
+}
+
+
+def toy2d_config(scale: str = "toy", **overrides) -> Toy2DConfig:
     """The configuration for a scale preset (``"toy"``, ``"small"``, ``"paper"``), fields overridable.
 
     Two dimensions need no big network; larger scales train longer with a wider model and use
     K = 1000 as NIFTY does.
     """
-    base = by_scale(
-        scale,
-        toy=Toy2DConfig(),
-        small=Toy2DConfig(width=256, depth=4, steps=20000, diffusion_steps=1000),
-        paper=Toy2DConfig(width=256, depth=4, steps=50000, diffusion_steps=1000, n_train=100000),
-    )
-    return Toy2DConfig(**{**base.__dict__, **overrides})
+    return scaled_config(Toy2DConfig, scale, TOY2D_SCALES, overrides, factory="toy2d_config")
 
 
 def build_toy2d_denoiser(config: Toy2DConfig) -> MLPDenoiser:
@@ -345,39 +356,37 @@ def build_toy2d_denoiser(config: Toy2DConfig) -> MLPDenoiser:
 
 
 @single_threaded  # a small MLP: one CPU thread is fastest
-def train_toy2d_denoiser(config: Toy2DConfig, device="cpu", progress: bool = False):
+def train_toy2d_denoiser(config: Toy2DConfig, device="cpu", progress: bool = False) -> tuple[MLPDenoiser, TrainResult]:
     """Train the 2-D denoiser with the x0 loss and label dropout (NIFTY §3.1).
 
     Args:
         config: a :class:`Toy2DConfig`.
-        device: where to train (``"cpu"``, ``"auto"``, ``"cuda"`` …); the result is on the CPU.
+        device: where to train (``"cpu"``, ``"auto"``, ``"cuda"`` …); the model stays there.
         progress: show a progress bar.
 
     Returns:
-        ``(state_dict, losses)``: the trained weights (CPU tensors, load them into
-        :func:`build_toy2d_denoiser`'s model) and the per-step losses (list of floats).
+        ``(model in eval mode, TrainResult)``.
     """
     points, labels = sample_toy2d(config.distribution, config.n_train, config.seed)
-    schedule = config.noise_schedule()
     model = build_toy2d_denoiser(config)
-    trainer = TrainerConfig(steps=config.steps, batch_size=config.batch_size, lr=config.lr,
-                            lr_schedule="cosine", warmup_steps=min(100, config.steps), device=str(device),
-                            progress=progress, seed=config.seed)
+    result = train_denoiser(model, points, labels, config.noise_schedule(),
+                            trainer_config(config, device=device, progress=progress), p_uncond=config.p_uncond)
+    return model.eval(), result
 
-    def sample_batch(step: int, generator: torch.Generator):
-        index = torch.randint(0, config.n_train, (config.batch_size,), generator=generator)
-        return {"x0": points[index], "labels": labels[index], "seed": torch.randint(0, 2**62, (1,), generator=generator)}
 
-    schedules = {}  # the schedule moved to the training device once
+def trained_toy2d_denoiser(config: Toy2DConfig, device="cpu", progress: bool = False) -> TrainedModel:
+    """The 2-D denoiser for ``config``, trained once and then loaded from the artifact cache.
 
-    def loss_fn(net, batch):
-        device = batch["x0"].device
-        if device not in schedules:
-            schedules[device] = schedule.to(device)
-        generator = torch.Generator(device=device).manual_seed(int(batch["seed"]))
-        return training_loss(net, batch["x0"], batch["labels"], schedules[device],
-                             generator=generator, p_uncond=config.p_uncond)
+    Returns:
+        a :class:`~hoi_tutorial.infra.TrainedModel` (the model in eval mode on the CPU, its losses
+        and training seconds; no details).
+    """
+    def build():
+        model, result = train_toy2d_denoiser(config, device=device, progress=progress)
+        return {"state": state_dict_to_cpu(model), "losses": torch.tensor(result.losses),
+                "seconds": float(result.seconds)}
 
-    result = train(model, sample_batch, loss_fn, trainer)
-    state = {name: value.detach().cpu().clone() for name, value in model.state_dict().items()}
-    return state, [float(v) for v in result.losses]
+    artifact = load_or_build("toy2d_denoiser", config, build, code=(sys.modules[__name__], denoisers, diffusion))
+    model = build_toy2d_denoiser(config)
+    model.load_state_dict(artifact["state"])
+    return TrainedModel(model.eval(), artifact["losses"], artifact["seconds"])
