@@ -457,11 +457,14 @@ def test_trainer_errors_and_callbacks():
 
 def test_losses_read_back_at_an_interval_are_the_per_step_losses():
     sample_batch, loss_fn = _regression_problem()
-    every = train(torch.nn.Linear(3, 1), sample_batch, loss_fn,
-                  TrainerConfig(steps=23, device="cpu", progress=False, log_every=1))
-    interval = train(torch.nn.Linear(3, 1), sample_batch, loss_fn,
-                     TrainerConfig(steps=23, device="cpu", progress=False, log_every=10))
+    runs = []
+    for log_every in (1, 10):
+        torch.manual_seed(0)
+        runs.append(train(torch.nn.Linear(3, 1), sample_batch, loss_fn,
+                          TrainerConfig(steps=23, device="cpu", progress=False, log_every=log_every)))
+    every, interval = runs
     assert len(interval.losses) == 23 and interval.losses == every.losses
+    assert interval.extra["abs_bias_error"] == every.extra["abs_bias_error"]
 
 
 def test_trainer_config_reads_a_component_config():
