@@ -29,7 +29,7 @@ import scipy.linalg
 import torch
 from scipy.spatial import cKDTree
 
-from hoi_tutorial._validate import check_shape
+from ._validate import check_shape
 
 __all__ = [
     "foot_skating",

@@ -24,10 +24,10 @@ import torch
 from .._validate import check_choice
 from ..infra import TrainedModel, load_or_build, state_dict_to_cpu
 from ..infra.presets import check_scale, scaled_config
-from .. import world as world_module
-from ..world import mocap as mocap_module
+from .. import world
+from ..world import mocap
 from ..world.motion import FPS, Motion, action_id
-from . import anchors as anchors_module
+from . import anchors
 from . import motion_prior, rollout
 from .anchors import Anchor, collect_anchors
 from .motion_prior import PriorConfig, ReversePrior, prior_config, train_reverse_prior
@@ -132,7 +132,7 @@ def prior_training_clips(config: SyntheticDataConfig) -> list[Motion]:
     key = (config.clips_per_kind, config.seed, config.mocap_subjects, PRIOR_MOCAP_KINDS)
     if key not in _PRIOR_CLIPS:
         _PRIOR_CLIPS.clear()  # keep one configuration: a few MB
-        _PRIOR_CLIPS[key] = mocap_module.generate_dataset(config.clips_per_kind, seed=config.seed,
+        _PRIOR_CLIPS[key] = mocap.generate_dataset(config.clips_per_kind, seed=config.seed,
                                                           kinds=PRIOR_MOCAP_KINDS, subjects=config.mocap_subjects)
     return list(_PRIOR_CLIPS[key])
 
@@ -171,7 +171,7 @@ def trained_prior(config: SyntheticDataConfig, device: str = "cpu", progress: bo
 
     key = {"clips_per_kind": config.clips_per_kind, "mocap_subjects": config.mocap_subjects,
            "prior": dataclasses.asdict(config.prior), "seed": config.seed, "kinds": PRIOR_MOCAP_KINDS}
-    artifact = load_or_build("nifty_reverse_prior", key, build, code=(motion_prior, world_module))
+    artifact = load_or_build("nifty_reverse_prior", key, build, code=(motion_prior, world))
     model = ReversePrior(config.prior)
     model.load_state_dict(artifact["state"])
     return TrainedModel(model.eval(), artifact["losses"], artifact["seconds"],
@@ -228,21 +228,21 @@ def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool 
     """Run (or load) the whole synthetic-data pipeline for one interaction."""
     trained = trained_prior(config, device=device, progress=progress)
     prior = trained.model
-    anchors = collect_anchors(config.action, config.n_subjects, config.anchors_per_subject, config.seed)
+    dataset_anchors = collect_anchors(config.action, config.n_subjects, config.anchors_per_subject, config.seed)
 
     def build():
         prune = prune_settings(config)
         generator = torch.Generator().manual_seed(config.seed)
-        trees = grow_trees(prior, anchors, generator, config.tree, prune)
+        trees = grow_trees(prior, dataset_anchors, generator, config.tree, prune)
         return _paths_payload(trees)
 
     key = {"config": dataclasses.asdict(config)}
     payload = load_or_build(f"nifty_{config.action}_rollouts", key, build,
-                            code=(motion_prior, rollout, anchors_module, world_module))
+                            code=(motion_prior, rollout, anchors, world))
     action = action_id(config.action)
     all_paths = []
     for rots, roots, a, d in zip(payload["local_rotations"], payload["root_position"], payload["anchor"], payload["depth"]):
-        anchor: Anchor = anchors[int(a)]
+        anchor: Anchor = dataset_anchors[int(a)]
         T = rots.shape[0]
         motion = Motion(rots, roots, anchor.betas, FPS, actions=np.full(T, action, dtype=np.int64),
                         meta={"depth": int(d), "anchor_frame": T - 1, "action": config.action,
@@ -250,10 +250,10 @@ def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool 
         all_paths.append(InteractionSequence(motion, anchor.obj, anchor))
     sequences = [p for p in all_paths if start_distance(p.motion, p.obj) >= config.tree.min_start_distance]
     leaves = [[i for i in range(len(all_paths)) if payload["anchor"][i] == a and payload["leaf"][i]]
-              for a in range(len(anchors))]
+              for a in range(len(dataset_anchors))]
     stats = {"paths": len(all_paths), "kept": len(sequences), "filtered_near_start": len(all_paths) - len(sequences),
              "prior": {"seconds": trained.seconds, **trained.details}}
-    return SyntheticDataset(config, anchors, sequences, leaves, all_paths, payload["trees"], stats)
+    return SyntheticDataset(config, dataset_anchors, sequences, leaves, all_paths, payload["trees"], stats)
 
 
 def survival_by_depth(dataset: SyntheticDataset) -> dict:

@@ -39,12 +39,12 @@ from .. import metrics
 from .._validate import check_choice
 from ..infra import load_or_build, single_threaded
 from ..infra.presets import scaled_config
-from ..world import body as body_module
+from ..world import body
 from ..world.features import NIFTY_STATE_LAYOUT, canonicalize
 from ..world.mocap import generate_clip
 from ..world.motion import Motion
-from . import data as data_module
-from . import motion_model as mm
+from . import data
+from . import motion_model
 from .motion_model import anchor_skeleton_distance, final_pelvis_distance
 from .paper_numbers import TABLE1_COLUMNS
 
@@ -217,7 +217,7 @@ def test_scenes(anchors: Sequence, n_scenes: int, distance_range: tuple[float, f
             translation = torch.tensor([where[0], where[1], 0.0], dtype=pose.root_position.dtype)
             start = pose.transformed(heading, translation)
             # The person must start clear of the object (a wide sofa reaches past the nearest starts).
-            vertices = body_module.body_from_motion(start, frames=[0])[0]
+            vertices = body.body_from_motion(start, frames=[0])[0]
             if float(np.min(anchor.obj.sdf(vertices.detach().double().numpy()))) > _START_CLEARANCE:
                 break
         else:
@@ -239,13 +239,13 @@ def _penetration_per_frame(motion: Motion, object_points: torch.Tensor, frames=N
         rot, pos = rot[frames], pos[frames]
     rot, pos, betas = rot.float(), pos.float(), motion.betas.float()
     points = object_points.float()
-    a, b, radius = body_module.capsule_segments(rot, pos, betas)  # (T', C, 3), (T', C)
+    a, b, radius = body.capsule_segments(rot, pos, betas)  # (T', C, 3), (T', C)
     low = (torch.minimum(a, b) - radius[..., None]).amin(dim=-2)  # (T', 3)
     high = (torch.maximum(a, b) + radius[..., None]).amax(dim=-2)
     near = ((points[None] >= low[:, None]) & (points[None] <= high[:, None])).all(dim=-1)  # (T', P)
     sdf = torch.full(near.shape, math.inf)
     t, p = torch.nonzero(near, as_tuple=True)
-    sdf[t, p] = body_module.capsule_sdf(points[p, None], a[t], b[t], radius[t])[:, 0]
+    sdf[t, p] = body.capsule_sdf(points[p, None], a[t], b[t], radius[t])[:, 0]
     return sdf.numpy()
 
 
@@ -319,8 +319,8 @@ def evaluate_motions(motions: Sequence[Motion], objects: Sequence, anchors: Sequ
     for anchor in anchors:
         pose = anchor.pose
         motion = Motion(pose.local_rotations[None], pose.root_position[None], anchor.betas)
-        vertices = body_module.body_from_motion(motion)[0]
-        anchor_contacts.append(body_module.object_contact_vertices(vertices, anchor.obj.sdf))
+        vertices = body.body_from_motion(motion)[0]
+        anchor_contacts.append(body.object_contact_vertices(vertices, anchor.obj.sdf))
     clouds = {}
     out = {name: [] for name in ("foot_skating", "d2o", "penetration", "skeleton_distance", "nearest_anchor",
                                  "contact_iou", "start_distance", "final_distance")}
@@ -330,18 +330,18 @@ def evaluate_motions(motions: Sequence[Motion], objects: Sequence, anchors: Sequ
         if id(obj) not in clouds:
             clouds[id(obj)] = _world_object_points(obj, n_object_points, seed)
         points = clouds[id(obj)]
-        final_vertices = body_module.body_from_motion(motion, frames=[len(motion) - 1])[0]
+        final_vertices = body.body_from_motion(motion, frames=[len(motion) - 1])[0]
         n = min(int(n_approach), len(motion))
         distance, nearest = anchor_skeleton_distance(motion, anchors, obj)
         last, first = final_pelvis_distance(motion, obj)
-        out["foot_skating"].append(float(metrics.foot_skating(body_module.toe_positions(motion), fps=motion.fps)))
+        out["foot_skating"].append(float(metrics.foot_skating(body.toe_positions(motion), fps=motion.fps)))
         d2o = float(metrics.distance_to_object(final_vertices, points))
         out["d2o"].append(d2o)
         out["penetration"].append(float(metrics.penetration_score(
             _penetration_per_frame(motion, points, frames=slice(0, n)))) if d2o <= reach else math.nan)
         out["skeleton_distance"].append(float(distance))
         out["nearest_anchor"].append(int(nearest))
-        contacts = body_module.object_contact_vertices(final_vertices, obj.sdf)
+        contacts = body.object_contact_vertices(final_vertices, obj.sdf)
         out["contact_iou"].append(float(metrics.contact_iou(contacts, anchor_contacts[nearest])))
         out["start_distance"].append(first)
         out["final_distance"].append(last)
@@ -469,24 +469,24 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
     training = [dataset.sequences[i] for i in training_index]
 
     def build():
-        model = mm.trained_motion_model(dataset, model_config, device=device, progress=progress).model
+        model = motion_model.trained_motion_model(dataset, model_config, device=device, progress=progress).model
         n_approach = approach_length([dataset.sequences[i].motion for i in approach_index],
                                      [dataset.sequences[i].obj for i in approach_index], dataset.config.action,
                                      max_frames=model_config.max_frames, n_object_points=config.n_object_points,
                                      seed=config.seed)
         # One sampling call for the scenes and the training conditions together.
-        conditions = [mm.interaction_condition(s.start, s.obj, model_config.n_points, seed=config.seed)
+        conditions = [motion_model.interaction_condition(s.start, s.obj, model_config.n_points, seed=config.seed)
                       for s in scenes]
-        tensors = mm.InteractionTensors.from_sequences(training, model_config.max_frames, model_config.n_points,
+        tensors = motion_model.InteractionTensors.from_sequences(training, model_config.max_frames, model_config.n_points,
                                                        model_config.seed)
         cond = {name: torch.cat([torch.stack([c[name] for c in conditions]), tensors.condition()[name]])
-                for name in mm.CONDITION_KEYS}
+                for name in motion_model.CONDITION_KEYS}
         placement = torch.cat([torch.stack([c["world_from_canonical"] for c in conditions]),
                                tensors.world_from_canonical])
         generator = torch.Generator().manual_seed(config.seed)
-        states = mm.sample_motions(model, cond, generator=generator, guidance_scale=config.guidance_scale,
+        states = motion_model.sample_motions(model, cond, generator=generator, guidance_scale=config.guidance_scale,
                                    device=device)
-        motions = mm.states_to_motions(states, cond["betas"], placement)
+        motions = motion_model.states_to_motions(states, cond["betas"], placement)
         objects = [s.obj for s in scenes] + [s.obj for s in training]
         out = {"n_approach": int(n_approach), "sets": {}}
         parts = {"scenes": (motions[:len(scenes)], objects[:len(scenes)]),
@@ -511,7 +511,7 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
     key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config),
            "evaluation": dataclasses.asdict(config)}
     artifact = load_or_build(f"nifty_{dataset.config.action}_motion_model_evaluation", key, build,
-                             code=mm.model_code() + (sys.modules[__name__], body_module, metrics))
+                             code=motion_model.model_code() + (sys.modules[__name__], body, metrics))
     betas = {"scenes": [s.start.betas for s in scenes], "training": [s.motion.betas for s in training]}
     sets = {}
     for name, part in artifact["sets"].items():
@@ -532,5 +532,5 @@ def build_evaluation(data_config, model_config, config: Optional[EvaluationConfi
         config: an :class:`EvaluationConfig`.
         device: where to train and sample.
     """
-    dataset = data_module.synthesize(data_config, device=device, progress=False)
+    dataset = data.synthesize(data_config, device=device, progress=False)
     evaluate_motion_model(dataset, model_config, config, device=device)

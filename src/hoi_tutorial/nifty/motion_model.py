@@ -33,6 +33,7 @@ decay), under a minute on one CPU thread. ``small`` sits in between.
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import math
 import sys
 from dataclasses import dataclass
@@ -46,25 +47,16 @@ from .._validate import as_tensor, check_choice, check_shape
 from .. import metrics
 from ..infra import TrainedModel, TrainResult, load_or_build, single_threaded, state_dict_to_cpu, trainer_config
 from ..infra.presets import scaled_config
-from ..nn import cvae as cvae_module
-from ..nn import diffusion as diffusion_module
-from ..nn import pointnet as pointnet_module
-from ..nn import transformer as transformer_module
-from ..nn.cvae import MLP
+from ..nn.mlp import MLP
 from ..nn.diffusion import (NoiseSchedule, SamplingRecord, classifier_free_x0, cosine_schedule, sample,
                             sample_with_record, train_denoiser)
 from ..nn.pointnet import PointNetEncoder
 from ..nn.transformer import TransformerDenoiser
-from .. import world as world_module
 from ..world.features import (NIFTY_STATE_SIZE, canonical_transform, motion_from_nifty_state, nifty_pose_state,
                               root_frame)
 from ..world.motion import Motion
 from ..world.rotations import rotation_about_z
 from ..world.skeleton import NUM_BETAS, NUM_JOINTS, joint_index
-from . import anchors as anchors_module
-from . import data as data_module
-from . import motion_prior as prior_module
-from . import rollout as rollout_module
 
 __all__ = [
     "CONDITION_KEYS",
@@ -484,11 +476,16 @@ def train_motion_model(tensors: InteractionTensors, config: MotionModelConfig, d
     return model.eval(), result
 
 
+# The code a trained motion model depends on: its own, its networks', its data pipeline's and the toy
+# world's (package-relative module names).
+_MODEL_CODE = ("..nn.diffusion", "..nn.transformer", "..nn.pointnet", "..nn.mlp", "..world", ".data", ".rollout",
+               ".motion_prior", ".anchors")
+
+
 def model_code() -> tuple:
-    """The code a trained motion model depends on, its data pipeline and the toy world included (its
-    cache key's code: a change to any of it retrains the model)."""
-    return (sys.modules[__name__], diffusion_module, transformer_module, pointnet_module, cvae_module,
-            world_module, data_module, rollout_module, prior_module, anchors_module)
+    """The modules a trained motion model depends on, its data pipeline and the toy world included (its
+    cache key's code: a change to any of them retrains the model)."""
+    return (sys.modules[__name__],) + tuple(importlib.import_module(name, __package__) for name in _MODEL_CODE)
 
 
 def trained_motion_model(dataset, config: MotionModelConfig, device="cpu", progress: bool = True):

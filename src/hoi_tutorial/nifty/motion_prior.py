@@ -33,7 +33,8 @@ from torch import nn
 from .._validate import check_shape
 from ..infra import TrainerConfig, single_threaded, train
 from ..infra.presets import scaled_config
-from ..nn.cvae import MLP, gaussian_kl
+from ..nn.cvae import gaussian_kl
+from ..nn.mlp import MLP
 from ..world.features import feature_layout
 from ..world.kinematics import forward_kinematics
 from ..world.motion import FPS, Motion

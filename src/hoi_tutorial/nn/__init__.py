@@ -5,13 +5,15 @@
 - :mod:`.embeddings`: step, Fourier and positional embeddings;
 - :mod:`.pointnet`: a PointNet encoder for point clouds;
 - :mod:`.transformer`: an MDM/NIFTY-style transformer denoiser;
-- :mod:`.cvae`: Gaussian KL, reparameterisation, MLP;
+- :mod:`.mlp`: a plain MLP and the activations by name;
+- :mod:`.cvae`: Gaussian KL, reparameterisation;
 - :mod:`.moe`: mixture-of-experts layers with blended weights (SAMP Eq. 2);
 - :mod:`.denoisers`: an x0-predicting MLP denoiser for vectors (2-D points, short trajectories);
 - :mod:`.toy2d`: 2-D teaching distributions and objectives for the diffusion chapter.
 """
 from . import toy2d
-from .cvae import ACTIVATIONS, MLP, gaussian_kl, reparameterize
+from .cvae import gaussian_kl, reparameterize
+from .mlp import ACTIVATIONS, MLP
 from .denoisers import MLPDenoiser
 from .diffusion import (
     NoiseSchedule,

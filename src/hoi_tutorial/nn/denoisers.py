@@ -34,7 +34,7 @@ import torch
 from torch import nn
 
 from .._validate import check_shape
-from .cvae import MLP
+from .mlp import MLP
 from .diffusion import NoiseSchedule
 from .embeddings import FourierFeatures, TimestepEmbedding
 

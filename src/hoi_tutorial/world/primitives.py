@@ -25,7 +25,7 @@ from typing import Sequence
 import numpy as np
 import torch
 
-from hoi_tutorial._validate import check_choice, check_shape
+from .._validate import check_choice, check_shape
 
 __all__ = [
     "PRIMITIVE_KINDS",

@@ -16,15 +16,15 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
-from hoi_tutorial._validate import check_choice, check_shape
-from hoi_tutorial.world.objects import (
+from .._validate import check_choice, check_shape
+from .objects import (
     GRASPABLE,
     SITTABLE,
     ToyObject,
     _as_rng,
     make_object,
 )
-from hoi_tutorial.world.primitives import box, footprint_distance, union_sdf
+from .primitives import box, footprint_distance, union_sdf
 
 __all__ = [
     "FOOTPRINT_BAND",
