@@ -14,7 +14,7 @@ import torch
 
 from hoi_tutorial.infra import SCALES, artifact_key, scaled_config
 from hoi_tutorial.nifty import data, evaluation, motion_model, motion_prior, rollout, trajectories
-from hoi_tutorial.nn import toy2d
+from hoi_tutorial.nifty import toy2d
 
 ACTIONS = ("sit", "lift")
 

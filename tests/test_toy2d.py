@@ -8,7 +8,7 @@ import torch
 from hypothesis import given
 from hypothesis import strategies as st
 
-from hoi_tutorial.nn import toy2d
+from hoi_tutorial.nifty import toy2d
 from hoi_tutorial.nn.denoisers import MLPDenoiser
 from hoi_tutorial.nn.diffusion import classifier_free_x0, cosine_schedule, q_sample, sample
 

@@ -37,7 +37,7 @@ LR_SCHEDULES = ("constant", "cosine", "onecycle")
 OPTIMIZERS = ("adamw", "adam")
 
 
-@dataclass
+@dataclass(frozen=True)
 class TrainerConfig:
     """How to optimise (not what): the knobs of :func:`train`.
 

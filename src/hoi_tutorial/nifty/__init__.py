@@ -2,6 +2,8 @@
 
 Modules, in the order of the paper:
 
+- ``toy2d``: the diffusion chapter's 2-D experiment: distributions with exact posteriors, region objectives,
+  a class-conditional denoiser.
 - ``trajectories``: a small diffusion model over toy walking trajectories (the guidance chapter).
 - ``motion_prior``: the time-reversed HuMoR-style motion prior (§3.3, Appendix A.2).
 - ``anchors``: anchor poses for sitting and lifting across toy subjects and objects (§3.3).

@@ -8,16 +8,13 @@
 - :mod:`.mlp`: a plain MLP and the activations by name;
 - :mod:`.cvae`: Gaussian KL, reparameterisation;
 - :mod:`.moe`: mixture-of-experts layers with blended weights (SAMP Eq. 2);
-- :mod:`.denoisers`: an x0-predicting MLP denoiser for vectors (2-D points, short trajectories);
-- :mod:`.toy2d`: 2-D teaching distributions and objectives for the diffusion chapter.
+- :mod:`.denoisers`: an x0-predicting MLP denoiser for vectors (2-D points, short trajectories).
 """
-from . import toy2d
 from .cvae import gaussian_kl, reparameterize
 from .mlp import ACTIVATIONS, MLP
 from .denoisers import MLPDenoiser
 from .diffusion import (
     NoiseSchedule,
-    best_of_n,
     classifier_free_x0,
     cosine_schedule,
     guided_x0,
@@ -25,7 +22,11 @@ from .diffusion import (
     p_mean_from_x0,
     q_posterior,
     q_sample,
+    SamplingRecord,
+    best_of_n,
     sample,
+    sample_with_record,
+    train_denoiser,
     training_loss,
 )
 from .embeddings import FourierFeatures, PositionalEncoding, SinusoidalEmbedding, TimestepEmbedding, sinusoid_table
@@ -35,10 +36,11 @@ from .transformer import TransformerDenoiser
 
 __all__ = [
     "NoiseSchedule", "cosine_schedule", "linear_schedule", "q_sample", "q_posterior", "p_mean_from_x0",
-    "classifier_free_x0", "guided_x0", "sample", "best_of_n", "training_loss",
+    "classifier_free_x0", "guided_x0", "sample", "sample_with_record", "SamplingRecord", "best_of_n",
+    "training_loss", "train_denoiser",
     "SinusoidalEmbedding", "TimestepEmbedding", "FourierFeatures", "PositionalEncoding", "sinusoid_table",
     "PointNetEncoder",
-    "TransformerDenoiser", "MLPDenoiser", "toy2d",
+    "TransformerDenoiser", "MLPDenoiser",
     "gaussian_kl", "reparameterize", "MLP", "ACTIVATIONS",
     "MixtureOfExpertsLinear", "GatingNetwork", "MoEMLP",
 ]

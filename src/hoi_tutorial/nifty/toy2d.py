@@ -29,9 +29,9 @@ from ..infra.seeding import rng as make_rng
 from ..infra.device import single_threaded
 from ..infra.cache import load_or_build, state_dict_to_cpu
 from ..infra.training import TrainedModel, TrainResult, trainer_config
-from . import denoisers, diffusion
-from .denoisers import MLPDenoiser
-from .diffusion import NoiseSchedule, cosine_schedule, linear_schedule, train_denoiser
+from ..nn import denoisers, diffusion
+from ..nn.denoisers import MLPDenoiser
+from ..nn.diffusion import NoiseSchedule, cosine_schedule, linear_schedule, train_denoiser
 
 __all__ = [
     "TOY2D_DISTRIBUTIONS",
