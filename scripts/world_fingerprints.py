@@ -172,6 +172,17 @@ def _interactions(out: dict) -> None:
         _interaction(out, f"interactions.open_drawer.{hand}",
                      lambda: I.open_drawer(drawer, hand=hand, seed=j, approach=bool(j), betas=betas))
     _interaction(out, "interactions.sit.wrong_object", lambda: I.sit(objects.make_object("mug"), seed=0))
+    # Rarer branches: feet hanging off a high seat, a start boxed in by an L-sofa (grid route),
+    # goals chosen by index (and refused).
+    _interaction(out, "interactions.sit.yoga_ball.hanging", lambda: I.sit(objects.make_object("yoga_ball", 10), seed=10))
+    l_sofa = objects.make_object("l_sofa", seed=1)
+    _interaction(out, "interactions.sit.l_sofa.grid_route",
+                 lambda: I.sit(l_sofa, seed=0, start_position=(-1.5, -1.5), stand_up=False))
+    for k in range(len(l_sofa.sit_goals[0])):
+        _interaction(out, f"interactions.sit.l_sofa.goal{k}", lambda: I.sit(l_sofa, seed=1, goal_index=k))
+    _interaction(out, "interactions.sit.goal_out_of_range", lambda: I.sit(chair, seed=1, goal_index=7))
+    sofa = objects.make_object("sofa", seed=2)
+    _interaction(out, "interactions.lie.sofa.goal1", lambda: I.lie(sofa, seed=3, goal_index=1, stand_up=True))
 
 
 def _gait(out: dict) -> None:
