@@ -21,7 +21,7 @@ from .objects import (
     GRASPABLE,
     SITTABLE,
     ToyObject,
-    _as_rng,
+    as_rng,
     make_object,
 )
 from .primitives import box, footprint_distance, union_sdf
@@ -280,7 +280,7 @@ class Room(_GridScene):
         """``n`` start points (n, 2) xy metres, at least ``clearance`` from footprints and walls, from
         which the target's approach point is reachable by a body of radius ``clearance``."""
         clearance = self.body_radius if clearance is None else float(clearance)
-        return self._sample_in_mask(self.reachable_mask(clearance), int(n), _as_rng(seed), clearance)
+        return self._sample_in_mask(self.reachable_mask(clearance), int(n), as_rng(seed), clearance)
 
     def top_down(self, ax=None):
         """Draw occupancy, object boxes and the target's sit goals (matplotlib axes, created if None)."""
@@ -357,7 +357,7 @@ def make_room(
         target_category: one of ``SITTABLE``.
     """
     check_choice(target_category, SITTABLE, "target_category")
-    rng = _as_rng(seed)
+    rng = as_rng(seed)
     size = np.asarray(size, dtype=np.float64)
     centres = _grid_centres(size, cell_size)
     for _ in range(max_attempts):
@@ -449,7 +449,7 @@ class Kitchen(_GridScene):
 
         labels, count = ndimage.label(free)
         largest = np.argmax(np.bincount(labels.ravel())[1:]) + 1
-        return self._sample_in_mask(labels == largest, int(n), _as_rng(seed), clearance)
+        return self._sample_in_mask(labels == largest, int(n), as_rng(seed), clearance)
 
     def top_down(self, ax=None):
         """Draw occupancy and object boxes, items in red (matplotlib axes, created if None)."""
@@ -488,7 +488,7 @@ def make_kitchen(
         door_angle: cabinet door opening (rad); None draws it in [0, 1.8].
         drawer_open: top drawer pulled out (m); None draws it in [0, 0.3].
     """
-    rng = _as_rng(seed)
+    rng = as_rng(seed)
     size = np.asarray(size, dtype=np.float64)
     lx, ly = size
     door_angle = float(rng.uniform(0.0, 1.8)) if door_angle is None else float(door_angle)
