@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from hoi_tutorial.metrics import foot_skating
 from hoi_tutorial.world.body import body_from_motion, toe_positions
 from hoi_tutorial.world.mocap import interactions as I
+from hoi_tutorial.world.mocap.motion_math import forward_xyz, heading_of
 from hoi_tutorial.world.motion import ACTIONS, CONTACT_JOINTS
 from hoi_tutorial.world.objects import make_object
 from hoi_tutorial.world.rotations import yaw_of_matrix
@@ -129,7 +130,7 @@ def test_sit_arrives_turned_and_sits_down_briskly(clips, name):
     # long turn on the spot.
     assert (names[:start] == "turn").sum() <= 0.5 * motion.fps
     heading = float(yaw_of_matrix(motion.global_rotations[start, 0]))
-    facing = I._heading_of(motion.meta["sit_goal"]["direction"])
+    facing = heading_of(motion.meta["sit_goal"]["direction"])
     assert abs((heading - facing + math.pi) % (2 * math.pi) - math.pi) < math.radians(10)
     # Sitting down takes 1-1.6 s (with the scoot back on a deep seat, at most 2 s), and at most
     # a short back-up precedes it: four seconds before settling the sitter was still walking in,
@@ -160,7 +161,7 @@ def test_leaning_back_reclines_the_torso(clips):
     names = _names(motion)
     seated = np.nonzero(names == "sit")[0]
     chest_up = motion.global_rotations[seated, joint_index("spine3"), :, 2].numpy()
-    forward = I._forward(I._heading_of(motion.meta["sit_goal"]["direction"]))
+    forward = forward_xyz(heading_of(motion.meta["sit_goal"]["direction"]))
     lean = chest_up @ forward  # negative when the chest tilts back
     assert lean.min() < lean[0] - 0.1
 

@@ -5,9 +5,15 @@ contact (ground-truth foot skating ≈ 0), hand contacts with objects are exact 
 carries per-frame action labels (``motion.ACTIONS``) and contact labels (``motion.CONTACT_JOINTS``).
 
 - ``gait``: locomotion — :func:`~.gait.idle`, :func:`~.gait.walk_path` (walk or run along a path),
-  :func:`~.gait.turn_in_place`, :func:`~.gait.side_step`.
-- ``interactions``: sit, lie down, lift, reach and grasp, open a door or drawer.
+  :func:`~.gait.turn_in_place`, :func:`~.gait.side_step`; built from ``paths`` (ground paths and
+  speed profiles), ``footsteps`` (footstep plans and foot tracks), ``gait_params`` (style ranges),
+  ``gait_body`` (leg geometry) and ``gait_synthesis`` (the posed body).
+- ``interactions``: sit, lie down, lift, reach and grasp, open a door or drawer — one module per
+  family (``sitting``, ``lying``, ``lifting``, ``grasping``, ``handles``) on ``body_plan`` (the
+  per-frame plan and its IK solve), ``standing`` (standing, stepping, bending) and ``approach``
+  (walking to the object and away).
 - ``poses``: reference poses (:func:`~.poses.standing_pose`).
+- ``motion_math``: the small math they share (easing curves, axis rotations, seeded generators).
 
 The front door is :func:`generate_clip` (one clip of a named kind from a seed) and
 :func:`generate_dataset` (a reproducible set of clips, optionally over several toy subjects whose
@@ -25,9 +31,11 @@ import torch
 
 from ...infra.device import single_threaded
 from ..motion import Motion
+from ..objects import make_object
 from ..skeleton import NUM_BETAS
 from . import gait
-from .gait import GAITS, Footstep, _rng, footstep_plan, idle, path_from_waypoints, side_step, turn_in_place, walk_path
+from .gait import GAITS, Footstep, footstep_plan, idle, path_from_waypoints, side_step, turn_in_place, walk_path
+from .motion_math import seeded_rng
 from .poses import standing_pose
 
 __all__ = [
@@ -78,7 +86,7 @@ def sample_betas(rng_or_seed, scale: float = 1.0) -> torch.Tensor:
     """
     if not (isinstance(scale, (int, float, np.floating, np.integer)) and 0.0 <= float(scale) <= 5.0):
         raise ValueError(f"scale: expected a number in [0, 5], got {scale!r}")
-    rng = _rng(rng_or_seed)
+    rng = seeded_rng(rng_or_seed)
     betas = np.clip(rng.normal(size=NUM_BETAS) * float(scale), -2.5, 2.5)
     return torch.tensor(betas, dtype=torch.float32)
 
@@ -97,7 +105,7 @@ def random_path(rng_or_seed, n_points: Optional[int] = None, *, room: float = RO
     Returns:
         ``(n_points, 2)`` metres.
     """
-    rng = _rng(rng_or_seed)
+    rng = seeded_rng(rng_or_seed)
     n = int(rng.integers(2, 5)) if n_points is None else int(n_points)
     if n < 2:
         raise ValueError(f"n_points: expected at least 2, got {n}")
@@ -133,7 +141,7 @@ def _polyline_length(pts) -> float:
 # --------------------------------------------------------------------------- locomotion kinds
 
 def _walk_clip(*, seed, betas=None, waypoints=None, gait: str = "walk", **kwargs) -> Motion:
-    rng = _rng(seed)
+    rng = seeded_rng(seed)
     if waypoints is None:
         # Runs need room to speed up and slow down: 3-4 waypoints, at least 5 m of path.
         waypoints = random_path(rng, int(rng.integers(3, 5)), min_length=5.0) if gait == "run" else random_path(rng)
@@ -145,20 +153,20 @@ def _run_clip(*, seed, betas=None, **kwargs) -> Motion:
 
 
 def _idle_clip(*, seed, betas=None, duration=None, **kwargs) -> Motion:
-    rng = _rng(seed)
+    rng = seeded_rng(seed)
     duration = float(rng.uniform(2.0, 4.0)) if duration is None else duration
     return idle(duration, betas=betas, seed=rng, **kwargs)
 
 
 def _turn_clip(*, seed, betas=None, angle=None, **kwargs) -> Motion:
-    rng = _rng(seed)
+    rng = seeded_rng(seed)
     if angle is None:
         angle = float(rng.choice([-1.0, 1.0]) * rng.uniform(math.radians(45), math.radians(180)))
     return turn_in_place(angle, betas=betas, seed=rng, **kwargs)
 
 
 def _side_step_clip(*, seed, betas=None, distance=None, **kwargs) -> Motion:
-    rng = _rng(seed)
+    rng = seeded_rng(seed)
     if distance is None:
         distance = float(rng.choice([-1.0, 1.0]) * rng.uniform(0.3, 1.0))
     return side_step(distance, betas=betas, seed=rng, **kwargs)
@@ -179,10 +187,8 @@ def _with_object(kind: str, function: Callable[..., Motion]) -> Callable[..., Mo
     made from the seed."""
 
     def generate(*, seed, betas=None, obj=None, **kwargs) -> Motion:
-        rng = _rng(seed)
+        rng = seeded_rng(seed)
         if obj is None:
-            from ..objects import make_object
-
             categories = INTERACTION_OBJECTS[kind]
             obj = make_object(categories[int(rng.integers(len(categories)))], seed=rng)
         return function(obj, seed=rng, betas=betas, **kwargs)
@@ -285,8 +291,6 @@ def generate_dataset(n_per_kind: int, *, seed: int, kinds: Optional[Sequence[str
             betas = None if subject is None else betas_list[subject]
             kwargs = {}
             if kind in INTERACTION_KINDS:
-                from ..objects import make_object
-
                 rng = np.random.default_rng(clip_seed)
                 categories = INTERACTION_OBJECTS[kind]
                 kwargs["obj"] = make_object(categories[int(rng.integers(len(categories)))], seed=rng)

@@ -39,7 +39,7 @@ from ..motion import FPS, Motion, action_id
 from ..rotations import yaw_of_matrix
 from ..skeleton import NUM_JOINTS
 from .footsteps import Footstep, assign_heel_off, footstep_plan, plan_footsteps
-from .gait_body import SIDE_JOINTS, SIDES, GaitBody
+from .gait_body import SIDES, SIDE_JOINTS, GaitBody
 from .gait_params import GAITS, IDLE_GAIT, SIDE_GAIT, TURN_GAIT, GaitParams, sample_style  # noqa: F401 (GaitParams)
 from .gait_synthesis import RootPlan, synthesize
 from .motion_math import min_jerk, right_xy, rot_z, seeded_rng, smoothstep, wrap_angle
@@ -175,7 +175,7 @@ def _locomotion_segment(body: GaitBody, start, rng: np.random.Generator, *, gait
     feet, _, start_heading = _state_of(body, start)
     # Peak acceleration of the smooth ramps: 1.5 * speed / ramp time, ramp time = accel_time * speed.
     s_of_t, stop, speed_of_t = path_speed_profile(path, cruise, 1.0 / params.accel_time, params.lateral_accel,
-                                                   params.min_turn_speed)
+                                                  params.min_turn_speed)
     step_length = body.hip_height * (params.step_ratio[0] + params.step_ratio[1] * cruise) * rng.uniform(0.94, 1.06)
     step_period = step_length / cruise
     heading0 = path.heading[0]
@@ -198,10 +198,10 @@ def _locomotion_segment(body: GaitBody, start, rng: np.random.Generator, *, gait
 
     first = "left" if rng.random() < 0.5 else "right"
     steps = plan_footsteps(root_at, still, initial=feet, first_side=first, step_period=step_period,
-                            duty=params.duty, half_width=params.half_width, over_foot=params.over_foot,
-                            forward_offset=body.stand_ankle_forward, body=body,
-                            min_gap=None if turning is None else _TURNING_GAP,
-                            settle_step=None if turning is None else _TURNING_SETTLE_STEP)
+                           duty=params.duty, half_width=params.half_width, over_foot=params.over_foot,
+                           forward_offset=body.stand_ankle_forward, body=body,
+                           min_gap=None if turning is None else _TURNING_GAP,
+                           settle_step=None if turning is None else _TURNING_SETTLE_STEP)
     assign_heel_off(steps, style.heel_off, step_length)
     last_touch = max([s.start for s in steps if math.isfinite(s.start)], default=0.0)
     moving_end = max(still, last_touch) + 0.25
@@ -217,7 +217,8 @@ def _locomotion_segment(body: GaitBody, start, rng: np.random.Generator, *, gait
     return synthesize(body, root, steps, params, style, step_period, step_length, actions, start=start, meta=meta)
 
 
-def _turn_segment(body: GaitBody, start, rng: np.random.Generator, angle: float, settle_hold: float, meta: dict) -> Motion:
+def _turn_segment(body: GaitBody, start, rng: np.random.Generator, angle: float, settle_hold: float,
+                  meta: dict) -> Motion:
     """Turn on the spot by ``angle`` radians with small stepping turns."""
     params = TURN_GAIT
     style = sample_style(rng, params)
@@ -235,8 +236,8 @@ def _turn_segment(body: GaitBody, start, rng: np.random.Generator, angle: float,
 
     first = "left" if angle > 0 else "right"
     steps = plan_footsteps(root_at, stop, initial=feet, first_side=first, step_period=step_period,
-                            duty=params.duty, half_width=params.half_width, over_foot=params.over_foot,
-                            forward_offset=body.stand_ankle_forward, body=body, first_lift_off=lift)
+                           duty=params.duty, half_width=params.half_width, over_foot=params.over_foot,
+                           forward_offset=body.stand_ankle_forward, body=body, first_lift_off=lift)
     last_touch = max([s.start for s in steps if math.isfinite(s.start)], default=0.0)
     moving_end = max(stop, last_touch) + 0.2
     times = _times(moving_end + settle_hold)
@@ -265,8 +266,8 @@ def _side_segment(body: GaitBody, start, rng: np.random.Generator, distance: flo
 
     first = "right" if distance > 0 else "left"
     steps = plan_footsteps(root_at, stop, initial=feet, first_side=first, step_period=step_period,
-                            duty=params.duty, half_width=params.half_width, over_foot=params.over_foot,
-                            forward_offset=body.stand_ankle_forward, body=body)
+                           duty=params.duty, half_width=params.half_width, over_foot=params.over_foot,
+                           forward_offset=body.stand_ankle_forward, body=body)
     last_touch = max([s.start for s in steps if math.isfinite(s.start)], default=0.0)
     moving_end = max(stop, last_touch) + 0.2
     times = _times(moving_end + settle_hold)
@@ -321,10 +322,10 @@ def _idle_segment(body: GaitBody, start, rng: np.random.Generator, duration: flo
             style.noise[key] = style.noise[key] * (ease if style.noise[key].ndim == 1 else ease[:, None])
     steps = [Footstep(side, -math.inf, math.inf, feet[side][0], feet[side][1]) for side in SIDES]
     root = RootPlan(times=times, xy=np.broadcast_to(centre, (T, 2)).copy(), yaw=np.full(T, heading),
-                     envelope=np.zeros(T))
+                    envelope=np.zeros(T))
     actions = np.full(T, action_id("idle"))
     return synthesize(body, root, steps, params, style, 1.0, 0.5, actions, start=start, meta=meta,
-                       extra_sway=sway)
+                      extra_sway=sway)
 
 
 def _join(parts: list[Motion], meta: dict) -> Motion:
