@@ -217,3 +217,31 @@ def test_paper_numbers_fill_table1_for_every_method_and_action():
             assert 0 <= row["% D2O ≤ 2cm ↑"] <= 100 and 0 <= row["Contact IoU ↑"] <= 1
     with pytest.raises(TypeError):
         paper_numbers.TABLE1["sit"]["NIFTY"]["Foot Skating ↓"] = 0.0  # read-only
+
+
+def test_evaluate_guided_keeps_the_best_candidate_and_caches(sit_case, tmp_cache):
+    from hoi_tutorial.nifty.interaction_field import interaction_field_config
+
+    records, anchors = sit_case
+    dataset = SyntheticDataset(config=synthetic_data_config("sit", "toy"), anchors=anchors, sequences=records,
+                               leaves=[], all_paths=[], tree_stats=[], stats={})
+    model_config = motion_model_config("sit", "toy", max_frames=FRAMES, width=32, layers=1, heads=4, n_points=64,
+                                       pointnet_hidden=(32,), diffusion_steps=10, steps=3, batch_size=2,
+                                       warmup_steps=0)
+    field_config = interaction_field_config("sit", "toy", width=32, layers=1, pointnet_hidden=(32,),
+                                            copies_per_sequence=2, steps=5, batch_size=4)
+    config = evaluation.EvaluationConfig(n_scenes=3, n_training=2, n_approach_sequences=2, n_object_points=200)
+    result = evaluation.evaluate_guided(dataset, model_config, field_config, config, n_samples=2, alpha=0.5,
+                                        n_scenes=2)
+    unguided = evaluation.evaluate_motion_model(dataset, model_config, config)
+    for scene, same in zip(result.test_scenes, unguided.test_scenes):  # the same scenes as Cond. MDM's
+        torch.testing.assert_close(scene.start.joints, same.start.joints, rtol=0, atol=0)
+    assert len(result.samples.motions) == 2 and len(result.samples.metrics) == 2
+    assert result.all_objectives.shape == (2, 2)
+    np.testing.assert_allclose(result.objective, result.all_objectives.min(axis=1))
+    again = evaluation.evaluate_guided(dataset, model_config, field_config, config, n_samples=2, alpha=0.5,
+                                       n_scenes=2)
+    assert len(list(tmp_cache.glob("nifty_sit_guided_evaluation-*.pt"))) == 1
+    np.testing.assert_array_equal(result.samples.metrics.d2o, again.samples.metrics.d2o)
+    with pytest.raises(ValueError, match="n_scenes"):
+        evaluation.evaluate_guided(dataset, model_config, field_config, config, n_scenes=0)

@@ -27,6 +27,7 @@ Scaled down: 500 test scenes per action -> a few dozen; sequences of 150 frames 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import sys
 from dataclasses import dataclass
@@ -44,7 +45,7 @@ from ..world.features import NIFTY_STATE_LAYOUT, canonicalize
 from ..world.mocap import generate_clip
 from ..world.motion import Motion
 from . import data
-from . import motion_model
+from . import guidance, interaction_field, motion_model
 from .motion_model import anchor_skeleton_distance, final_pelvis_distance
 from .paper_numbers import TABLE1_COLUMNS
 
@@ -60,6 +61,9 @@ __all__ = [
     "MotionModelEvaluation",
     "evaluate_motion_model",
     "build_evaluation",
+    "GuidedEvaluation",
+    "evaluate_guided",
+    "build_guided_evaluation",
     "APPROACH_QUANTILE",
     "approach_length",
     "evaluate_motions",
@@ -477,15 +481,15 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
         # One sampling call for the scenes and the training conditions together.
         conditions = [motion_model.interaction_condition(s.start, s.obj, model_config.n_points, seed=config.seed)
                       for s in scenes]
-        tensors = motion_model.InteractionTensors.from_sequences(training, model_config.max_frames, model_config.n_points,
-                                                       model_config.seed)
+        tensors = motion_model.InteractionTensors.from_sequences(training, model_config.max_frames,
+                                                                 model_config.n_points, model_config.seed)
         cond = {name: torch.cat([torch.stack([c[name] for c in conditions]), tensors.condition()[name]])
                 for name in motion_model.CONDITION_KEYS}
         placement = torch.cat([torch.stack([c["world_from_canonical"] for c in conditions]),
                                tensors.world_from_canonical])
         generator = torch.Generator().manual_seed(config.seed)
-        states = motion_model.sample_motions(model, cond, generator=generator, guidance_scale=config.guidance_scale,
-                                   device=device)
+        states = motion_model.sample_motions(model, cond, generator=generator,
+                                             guidance_scale=config.guidance_scale, device=device)
         motions = motion_model.states_to_motions(states, cond["betas"], placement)
         objects = [s.obj for s in scenes] + [s.obj for s in training]
         out = {"n_approach": int(n_approach), "sets": {}}
@@ -534,3 +538,93 @@ def build_evaluation(data_config, model_config, config: Optional[EvaluationConfi
     """
     dataset = data.synthesize(data_config, device=device, progress=False)
     evaluate_motion_model(dataset, model_config, config, device=device)
+
+
+# --------------------------------------------------------------------------- NIFTY: guided sampling
+
+
+@dataclass
+class GuidedEvaluation:
+    """What :func:`evaluate_guided` returns.
+
+    Attributes:
+        test_scenes: the scenes sampled (the first ``n_scenes`` of :func:`evaluate_motion_model`'s).
+        samples: the kept sample of each scene and its metrics.
+        objective: ``(S,)`` the kept samples' final guidance objective (m²).
+        all_objectives: ``(S, N)`` every candidate's final objective.
+        n_samples, alpha: N and the guidance step size α used.
+    """
+
+    test_scenes: list
+    samples: ScoredMotions
+    objective: np.ndarray
+    all_objectives: np.ndarray
+    n_samples: int
+    alpha: float
+
+
+def evaluate_guided(dataset, model_config, field_config, config: Optional[EvaluationConfig] = None, *,
+                    n_samples: int = 10, alpha: Optional[float] = None, n_scenes: Optional[int] = None,
+                    device="cpu") -> GuidedEvaluation:
+    """NIFTY on the test scenes: guided by the interaction field, best of ``n_samples`` (§4.1), scored
+    with :func:`evaluate_motions`, once (then from the cache).
+
+    The scenes, ``N_A`` and the point sampling are those of :func:`evaluate_motion_model` for the same
+    ``config``, so the rows compare scene by scene with its Cond. MDM samples.
+
+    Args:
+        dataset: a ``nifty.data.SyntheticDataset``.
+        model_config: the motion model's configuration.
+        field_config: the ``nifty.interaction_field.InteractionFieldConfig`` of the field.
+        config: an :class:`EvaluationConfig` (default: the toy preset).
+        n_samples: candidates per scene, N (NIFTY: 10).
+        alpha: guidance step size (default ``guidance.GUIDANCE_ALPHA["field"]``).
+        n_scenes: the first this many test scenes (default all).
+        device: where to train (if needed) and sample.
+    Returns:
+        a :class:`GuidedEvaluation`.
+    """
+    config = config or EvaluationConfig()
+    alpha = guidance.GUIDANCE_ALPHA["field"] if alpha is None else float(alpha)
+    unguided = evaluate_motion_model(dataset, model_config, config, device=device)
+    scenes = unguided.test_scenes[:n_scenes] if n_scenes is not None else unguided.test_scenes
+    if not scenes:
+        raise ValueError(f"n_scenes: expected at least one test scene, got {n_scenes!r}")
+
+    def build():
+        model = motion_model.trained_motion_model(dataset, model_config, device=device).model
+        field = interaction_field.trained_interaction_field(dataset, model_config, field_config, device=device).model
+        conditions = [motion_model.interaction_condition(s.start, s.obj, model_config.n_points, seed=config.seed)
+                      for s in scenes]
+        cond = {name: torch.stack([c[name] for c in conditions]) for name in motion_model.CONDITION_KEYS}
+        placement = torch.stack([c["world_from_canonical"] for c in conditions])
+        out = guidance.guided_samples(model, cond, functools.partial(guidance.field_objective, field),
+                                      n_samples=n_samples, alpha=alpha,
+                                      generator=torch.Generator().manual_seed(config.seed),
+                                      guidance_scale=config.guidance_scale, device=device)
+        motions = motion_model.states_to_motions(out.states, cond["betas"], placement)
+        scores = evaluate_motions(motions, [s.obj for s in scenes], dataset.anchors, unguided.n_approach,
+                                  config.n_object_points, config.seed)
+        return {"metrics": scores.as_dict(), **_motions_payload(motions), "objective": out.objective.numpy(),
+                "all_objectives": out.all_objectives.numpy()}
+
+    key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config),
+           "field": dataclasses.asdict(field_config), "evaluation": dataclasses.asdict(config),
+           "n_samples": int(n_samples), "alpha": alpha, "n_scenes": len(scenes)}
+    code = motion_model.model_code() + (sys.modules[__name__], interaction_field, guidance, body, metrics)
+    artifact = load_or_build(f"nifty_{dataset.config.action}_guided_evaluation", key, build, code=code)
+    motions = _payload_motions(artifact, [s.start.betas for s in scenes])
+    return GuidedEvaluation(test_scenes=scenes, samples=ScoredMotions(motions, MotionScores(**artifact["metrics"])),
+                            objective=np.asarray(artifact["objective"]),
+                            all_objectives=np.asarray(artifact["all_objectives"]), n_samples=int(n_samples),
+                            alpha=alpha)
+
+
+def build_guided_evaluation(data_config, model_config, field_config, config: Optional[EvaluationConfig] = None, *,
+                            n_samples: int = 10, alpha: Optional[float] = None, n_scenes: Optional[int] = None,
+                            device="cpu") -> None:
+    """Every artifact :func:`evaluate_guided` needs for one action (data, motion model and its
+    evaluation, interaction field, guided samples), built or loaded: for ``infra.warm_cache``."""
+    dataset = data.synthesize(data_config, device=device, progress=False)
+    evaluate_guided(dataset, model_config, field_config, config, n_samples=n_samples, alpha=alpha, n_scenes=n_scenes,
+                    device=device)

@@ -66,6 +66,7 @@ __all__ = [
     "field_training_pairs",
     "random_rigid_transforms",
     "InteractionField",
+    "field_around",
     "train_interaction_field",
     "trained_interaction_field",
 ]
@@ -376,6 +377,30 @@ class InteractionField(nn.Module):
         for a distance field, the squared distance)."""
         out = self(poses, points)
         return out.pow(2).flatten(1).sum(dim=1)
+
+
+@torch.no_grad()
+def field_around(field: InteractionField, pose: torch.Tensor, points: torch.Tensor, shifts: torch.Tensor) -> torch.Tensor:
+    """The field for one pose moved to several places on the ground (NIFTY Fig. 3).
+
+    Args:
+        field: a single-frame field (``n_frames = 1``).
+        pose: ``(23, 3)`` metres, a simplified pose in the field's frame.
+        points: ``(P, 3)`` metres, the object's cloud in the same frame.
+        shifts: ``(S, 2)`` metres, ground-plane translations applied to the pose.
+    Returns:
+        ``(S, 23, 3)`` the offsets (an offset field) or ``(S,)`` the distances (a distance field).
+    """
+    if field.config.n_frames != 1:
+        raise ValueError(f"field: expected a single-frame field, got n_frames={field.config.n_frames}")
+    pose, points, shifts = as_tensor(pose, "pose").float(), as_tensor(points, "points").float(), as_tensor(shifts, "shifts").float()
+    check_shape(pose, (POSE_POINTS, 3), "pose")
+    check_shape(points, (None, 3), "points")
+    check_shape(shifts, (None, 2), "shifts")
+    moved = pose.repeat(shifts.shape[0], 1, 1)
+    moved[..., :2] += shifts[:, None, :]
+    out = field(moved[:, None], points.expand(shifts.shape[0], -1, -1))
+    return out[:, 0]
 
 
 def _field_loss(field: InteractionField, poses, targets, points) -> torch.Tensor:
