@@ -495,7 +495,20 @@ def test_learning_rate_schedules():
     assert learning_rate_factor("cosine", 110, 110, warmup_steps=10) == pytest.approx(0.0)
     one = [learning_rate_factor("onecycle", s, 100) for s in range(101)]
     assert one[0] == pytest.approx(1 / 25) and max(one) == pytest.approx(1.0)
-    assert int(np.argmax(one)) == 30 and one[-1] < 1e-4
+    assert int(np.argmax(one)) == 29 and one[99] < 1e-4  # the peak at 0.3 · steps − 1, as in torch
+
+
+@pytest.mark.parametrize("steps, warmup", [(100, 0), (57, 0), (40, 10)])
+def test_onecycle_matches_torch(steps, warmup):
+    """The "onecycle" schedule is PyTorch's OneCycleLR (cosine phases, its default divisors)."""
+    optimizer = torch.optim.SGD([torch.nn.Parameter(torch.zeros(1))], lr=1.0)
+    pct_start = warmup / steps if warmup else 0.3
+    scheduler = torch.optim.lr_scheduler.OneCycleLR(optimizer, max_lr=1.0, total_steps=steps, pct_start=pct_start)
+    for step in range(steps):
+        assert learning_rate_factor("onecycle", step, steps, warmup) == pytest.approx(
+            optimizer.param_groups[0]["lr"], rel=1e-9, abs=1e-12)
+        optimizer.step()
+        scheduler.step()
 
 
 def test_train_result_plot():

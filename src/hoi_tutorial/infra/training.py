@@ -48,8 +48,9 @@ class TrainerConfig:
         weight_decay: decoupled weight decay for AdamW, L2 penalty for Adam.
         grad_clip: clip the global gradient norm to this value; ``None`` for no clipping.
         lr_schedule: ``"constant"`` (after warm-up), ``"cosine"`` (warm-up, then cosine decay to
-            0) or ``"onecycle"`` (the learning-rate part of the one-cycle policy, as NIFTY's
-            interaction field uses: from lr/25 up to lr, then down to lr/25e4).
+            0) or ``"onecycle"`` (the learning-rate part of the one-cycle policy, which NIFTY's
+            interaction field uses; its shape is PyTorch's ``OneCycleLR`` defaults, not stated by
+            NIFTY: from lr/25 up to lr over 30 % of the steps, then cosine down to lr/25e4).
         warmup_steps: linear warm-up steps (for ``"onecycle"``: the rising phase, 30 % of
             ``steps`` when 0).
         log_every: read the losses back from the device (one sync) and update the progress bar
@@ -189,13 +190,14 @@ def learning_rate_factor(schedule: str, step: int, steps: int, warmup_steps: int
     """The multiplier on the peak learning rate at ``step`` (0-based) of ``steps``."""
     check_choice(schedule, LR_SCHEDULES, "lr_schedule")
     if schedule == "onecycle":
-        rise = warmup_steps or max(1, round(0.3 * steps))
-        start, end = 1.0 / 25.0, 1.0 / 25e4
-        if step < rise:
-            t = step / rise
-            return start + (1.0 - start) * 0.5 * (1.0 - math.cos(math.pi * t))
-        t = min(1.0, (step - rise) / max(1, steps - rise))
-        return end + (1.0 - end) * 0.5 * (1.0 + math.cos(math.pi * t))
+        # torch.optim.lr_scheduler.OneCycleLR's two cosine phases (anneal_strategy="cos"), step for step.
+        rise_end = (warmup_steps or 0.3 * steps) - 1.0
+        start, peak, end = 1.0 / 25.0, 1.0, 1.0 / 25e4
+        if step <= rise_end:
+            t, a, b = (step / rise_end if rise_end > 0 else 1.0), start, peak
+        else:
+            t, a, b = min(1.0, (step - rise_end) / max(1e-12, steps - 1 - rise_end)), peak, end
+        return b + (a - b) * 0.5 * (1.0 + math.cos(math.pi * t))
     if step < warmup_steps:
         return (step + 1) / warmup_steps
     if schedule == "constant":

@@ -98,8 +98,9 @@ class InteractionFieldConfig:
             frame's origin.
         augment_shift: largest ground-plane shift of that transform, metres, per axis.
         steps, batch_size, lr, lr_schedule, warmup_steps, weight_decay, grad_clip: training
-            (NIFTY: 300K steps, AdamW, one-cycle to a peak of 5e-5). ``warmup_steps`` 0 with
-            ``"onecycle"`` rises for 30 % of the steps (the PyTorch default ``pct_start``).
+            (NIFTY: 300K steps, AdamW, one-cycle to a peak of 5e-5). With ``"onecycle"`` the shape is
+            PyTorch's ``OneCycleLR`` defaults (NIFTY gives only the policy); ``warmup_steps`` 0
+            rises for 30 % of the steps (its default ``pct_start``).
         seed: seeds the pairs (noise levels, noise, transforms), the weights and the batches.
     """
 
