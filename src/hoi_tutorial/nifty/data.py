@@ -22,7 +22,7 @@ import numpy as np
 import torch
 
 from .._validate import check_choice
-from ..infra import TrainedModel, load_or_build, state_dict_to_cpu
+from ..infra import TrainedModel, load_or_build, state_dict_to_cpu, training
 from ..infra.presets import check_scale, scaled_config
 from .. import world
 from ..world import mocap
@@ -171,7 +171,7 @@ def trained_prior(config: SyntheticDataConfig, device: str = "cpu", progress: bo
 
     key = {"clips_per_kind": config.clips_per_kind, "mocap_subjects": config.mocap_subjects,
            "prior": dataclasses.asdict(config.prior), "seed": config.seed, "kinds": PRIOR_MOCAP_KINDS}
-    artifact = load_or_build("nifty_reverse_prior", key, build, code=(motion_prior, world))
+    artifact = load_or_build("nifty_reverse_prior", key, build, code=(motion_prior, training, world))
     model = ReversePrior(config.prior)
     model.load_state_dict(artifact["state"])
     return TrainedModel(model.eval(), artifact["losses"], artifact["seconds"],

@@ -476,10 +476,10 @@ def train_motion_model(tensors: InteractionTensors, config: MotionModelConfig, d
     return model.eval(), result
 
 
-# The code a trained motion model depends on: its own, its networks', its data pipeline's and the toy
-# world's (package-relative module names).
-_MODEL_CODE = ("..nn.diffusion", "..nn.transformer", "..nn.pointnet", "..nn.mlp", "..world", ".data", ".rollout",
-               ".motion_prior", ".anchors")
+# The code a trained motion model depends on: its own, its networks', its trainer's, its data pipeline's
+# and the toy world's (package-relative module names).
+_MODEL_CODE = ("..nn.diffusion", "..nn.transformer", "..nn.pointnet", "..nn.mlp", "..infra.training", "..world",
+               ".data", ".rollout", ".motion_prior", ".anchors")
 
 
 def model_code() -> tuple:

@@ -32,6 +32,7 @@ from ..infra.presets import scaled_config
 from ..infra.seeding import rng as make_rng
 from ..infra.device import single_threaded
 from ..infra.cache import load_or_build, state_dict_to_cpu
+from ..infra import training
 from ..infra.training import TrainedModel, TrainResult, trainer_config
 from ..nn import denoisers, diffusion
 from ..nn.denoisers import MLPDenoiser
@@ -343,7 +344,7 @@ def trained_trajectory_denoiser(walk_config: WalkDataConfig, config: TrajectoryM
                 "seconds": float(result.seconds)}
 
     artifact = load_or_build("walk_trajectory_denoiser", {"data": walk_config, "model": config}, build,
-                             code=(sys.modules[__name__], gait, denoisers, diffusion))
+                             code=(sys.modules[__name__], gait, denoisers, diffusion, training))
     model = build_trajectory_denoiser(config)
     model.load_state_dict(artifact["state"])
     return TrainedModel(model.eval(), artifact["losses"], artifact["seconds"],
