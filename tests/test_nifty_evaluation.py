@@ -162,13 +162,19 @@ def test_table_row_known_answer():
 # --------------------------------------------------------------------------- a model, end to end
 
 
-def test_evaluate_motion_model_samples_scores_and_caches(sit_case, tmp_cache):
+def _tiny_dataset_and_model(sit_case):
+    """The two sit clips as a dataset, and a motion model small enough to train in a second."""
     records, anchors = sit_case
     dataset = SyntheticDataset(config=synthetic_data_config("sit", "toy"), anchors=anchors, sequences=records,
                                leaves=[], all_paths=[], tree_stats=[], stats={})
     model_config = motion_model_config("sit", "toy", max_frames=FRAMES, width=32, layers=1, heads=4, n_points=64,
                                        pointnet_hidden=(32,), diffusion_steps=10, steps=3, batch_size=2,
                                        warmup_steps=0)
+    return dataset, model_config
+
+
+def test_evaluate_motion_model_samples_scores_and_caches(sit_case, tmp_cache):
+    dataset, model_config = _tiny_dataset_and_model(sit_case)
     config = evaluation.EvaluationConfig(n_scenes=3, n_training=2, n_approach_sequences=2, n_object_points=200)
     result = evaluation.evaluate_motion_model(dataset, model_config, config)
     assert len(result.test_scenes) == 3 and result.training_index == [0, 1]
@@ -222,12 +228,7 @@ def test_paper_numbers_fill_table1_for_every_method_and_action():
 def test_evaluate_guided_keeps_the_best_candidate_and_caches(sit_case, tmp_cache):
     from hoi_tutorial.nifty.interaction_field import interaction_field_config
 
-    records, anchors = sit_case
-    dataset = SyntheticDataset(config=synthetic_data_config("sit", "toy"), anchors=anchors, sequences=records,
-                               leaves=[], all_paths=[], tree_stats=[], stats={})
-    model_config = motion_model_config("sit", "toy", max_frames=FRAMES, width=32, layers=1, heads=4, n_points=64,
-                                       pointnet_hidden=(32,), diffusion_steps=10, steps=3, batch_size=2,
-                                       warmup_steps=0)
+    dataset, model_config = _tiny_dataset_and_model(sit_case)
     field_config = interaction_field_config("sit", "toy", width=32, layers=1, pointnet_hidden=(32,),
                                             copies_per_sequence=2, steps=5, batch_size=4)
     config = evaluation.EvaluationConfig(n_scenes=3, n_training=2, n_approach_sequences=2, n_object_points=200)

@@ -64,3 +64,12 @@ def as_tensor(x, name: str, dtype=None) -> torch.Tensor:
         return torch.as_tensor(np.asarray(x), dtype=dtype)
     except Exception as exc:  # pragma: no cover - message path
         raise TypeError(f"{name}: expected an array-like of numbers, got {type(x).__name__}") from exc
+
+
+def check_positive_ints(owner, names: Iterable[str]) -> None:
+    """Raise ``ValueError`` naming the first of ``owner``'s attributes ``names`` that is not an int ≥ 1
+    (a bool is not an int here): the shared check of the configuration dataclasses."""
+    for name in names:
+        value = getattr(owner, name)
+        if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+            raise ValueError(f"{name}: expected a positive int, got {value!r}")

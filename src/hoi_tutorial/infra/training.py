@@ -26,7 +26,7 @@ from typing import Any, Callable, Optional, Sequence
 import torch
 from tqdm.auto import tqdm
 
-from .._validate import check_choice
+from .._validate import check_choice, check_positive_ints
 from .device import choose_device
 from .seeding import check_seed
 
@@ -77,10 +77,7 @@ class TrainerConfig:
     def __post_init__(self):
         check_choice(self.lr_schedule, LR_SCHEDULES, "lr_schedule")
         check_choice(self.optimizer, OPTIMIZERS, "optimizer")
-        for name in ("steps", "batch_size", "log_every"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-                raise ValueError(f"{name}: expected a positive int, got {value!r}")
+        check_positive_ints(self, ("steps", "batch_size", "log_every"))
         if not isinstance(self.warmup_steps, int) or not 0 <= self.warmup_steps <= self.steps:
             raise ValueError(f"warmup_steps: expected an int in [0, steps={self.steps}], "
                              f"got {self.warmup_steps!r}")

@@ -42,7 +42,7 @@ from typing import Optional
 import torch
 from torch import nn
 
-from .._validate import as_tensor, check_choice, check_shape
+from .._validate import as_tensor, check_choice, check_positive_ints, check_shape
 from ..infra import (TrainedModel, TrainResult, load_or_build, scaled_config, single_threaded, state_dict_to_cpu,
                      train, trainer_config)
 from ..nn.diffusion import classifier_free_x0, q_sample
@@ -130,10 +130,8 @@ class InteractionFieldConfig:
         check_choice(self.action, ("sit", "lift"), "action")
         check_choice(self.frame, FIELD_FRAMES, "frame")
         check_choice(self.output, FIELD_OUTPUTS, "output")
-        for name in ("n_frames", "width", "layers", "heads", "copies_per_sequence", "steps", "batch_size"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-                raise ValueError(f"{name}: expected a positive int, got {value!r}")
+        check_positive_ints(self, ("n_frames", "width", "layers", "heads", "copies_per_sequence", "steps",
+                                   "batch_size"))
         if self.width % self.heads:
             raise ValueError(f"width: expected a multiple of heads={self.heads}, got {self.width}")
         if not 0.0 <= self.augment_fraction <= 1.0:

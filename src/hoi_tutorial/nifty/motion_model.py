@@ -43,7 +43,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from .._validate import as_tensor, check_choice, check_shape
+from .._validate import as_tensor, check_choice, check_positive_ints, check_shape
 from .. import metrics
 from ..infra import TrainedModel, TrainResult, load_or_build, single_threaded, state_dict_to_cpu, trainer_config
 from ..infra.presets import scaled_config
@@ -138,11 +138,8 @@ class MotionModelConfig:
     def __post_init__(self):
         check_choice(self.action, ("sit", "lift"), "action")
         check_choice(self.lr_schedule, ("constant", "cosine"), "lr_schedule")
-        for name in ("max_frames", "width", "layers", "heads", "n_points", "diffusion_steps", "steps",
-                     "batch_size"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-                raise ValueError(f"{name}: expected a positive int, got {value!r}")
+        check_positive_ints(self, ("max_frames", "width", "layers", "heads", "n_points", "diffusion_steps", "steps",
+                                   "batch_size"))
         if self.width % self.heads:
             raise ValueError(f"width: expected a multiple of heads={self.heads}, got {self.width}")
         if not 0.0 <= self.p_uncond <= 1.0:
