@@ -1,11 +1,12 @@
 """NIFTY's evaluation protocol (§4.2, Appendix C.2): test scenes, per-motion metrics, Table 1 rows."""
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 import torch
 
-from hoi_tutorial.nifty import evaluation
+from hoi_tutorial.nifty import evaluation, paper_numbers
 from hoi_tutorial.nifty.anchors import Anchor
 from hoi_tutorial.nifty.data import SyntheticDataset, synthetic_data_config
 from hoi_tutorial.nifty.motion_model import final_pelvis_distance, motion_model_config
@@ -157,6 +158,15 @@ def test_table_row_known_answer():
     assert row["% Pen. ≤ 2cm ↑"] == pytest.approx(50.0)  # of the two that reach, one penetrates ≤ 2 cm
     with pytest.raises(TypeError, match="MotionScores"):
         evaluation.table_row({"d2o": results.d2o})
+    supplement = evaluation.table_row(results, columns=paper_numbers.SUPPLEMENT_COLUMNS)
+    assert list(supplement) == list(paper_numbers.SUPPLEMENT_COLUMNS)
+    assert supplement["% Skel. Dist. ≤ 25cm ↑"] == pytest.approx(0.0)  # every summed distance is ≥ 1 m here
+    near = dataclasses.replace(results, skeleton_distance=np.array([0.1, 0.25, 0.3, 6.0]))
+    assert evaluation.table_row(near, columns=("% Skel. Dist. ≤ 25cm ↑",))["% Skel. Dist. ≤ 25cm ↑"] == 50.0
+    assert evaluation.table_counts(near) == {"D2O ≤ 2cm": "2 / 4", "Skel. Dist. ≤ 25cm": "2 / 4",
+                                             "Pen. ≤ 2cm": "1 / 2"}
+    with pytest.raises(ValueError, match="columns"):
+        evaluation.table_row(results, columns=("Speed ↑",))
 
 
 # --------------------------------------------------------------------------- a model, end to end
@@ -213,7 +223,6 @@ def test_penetration_depths_match_the_full_body_sdf(sit_case):
 
 
 def test_paper_numbers_fill_table1_for_every_method_and_action():
-    from hoi_tutorial.nifty import paper_numbers
 
     assert evaluation.TABLE1_COLUMNS is paper_numbers.TABLE1_COLUMNS
     for action in ("sit", "lift"):

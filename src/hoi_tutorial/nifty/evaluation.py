@@ -47,7 +47,7 @@ from ..world.motion import Motion
 from . import data
 from . import guidance, interaction_field, motion_model
 from .motion_model import anchor_skeleton_distance, final_pelvis_distance
-from .paper_numbers import TABLE1_COLUMNS
+from .paper_numbers import SUPPLEMENT_COLUMNS, TABLE1_COLUMNS
 
 __all__ = [
     "TestScene",
@@ -68,6 +68,7 @@ __all__ = [
     "approach_length",
     "evaluate_motions",
     "table_row",
+    "table_counts",
     "TABLE1_COLUMNS",
 ]
 
@@ -352,28 +353,51 @@ def evaluate_motions(motions: Sequence[Motion], objects: Sequence, anchors: Sequ
     return MotionScores(**{name: np.asarray(values) for name, values in out.items()})
 
 
-def table_row(results: MotionScores, d2o_threshold: float = 0.02, penetration_threshold: float = 0.02) -> dict:
-    """One row of NIFTY Table 1 from :class:`MotionScores` (:func:`evaluate_motions`).
+def table_row(results: MotionScores, d2o_threshold: float = 0.02, penetration_threshold: float = 0.02,
+              skeleton_threshold: float = 0.25, columns=TABLE1_COLUMNS) -> dict:
+    """One row of NIFTY's tables from :class:`MotionScores` (:func:`evaluate_motions`).
 
-    Returns ``{column: value}`` over :data:`TABLE1_COLUMNS`: mean foot skating, % of sequences with
-    D2O ≤ 2 cm, the 95th percentile of D2O (metres), mean skeleton distance (metres), mean contact
-    IoU, and the % of sequences with penetration ≤ 2 cm among those with D2O ≤ 2 cm (NaN when none
-    reaches the object).
+    Columns (any of :data:`~hoi_tutorial.nifty.paper_numbers.SUPPLEMENT_COLUMNS`, default Table 1's):
+    mean foot skating, % of sequences with D2O ≤ 2 cm, the 95th percentile of D2O (metres), mean
+    skeleton distance (metres), % of sequences with skeleton distance ≤ 25 cm (Appendix D.1), mean
+    contact IoU, and the % of sequences with penetration ≤ 2 cm among those with D2O ≤ 2 cm (NaN when
+    none reaches the object). :func:`table_counts` gives the counts behind the percentages.
     """
     if not isinstance(results, MotionScores):
         raise TypeError(f"results: expected MotionScores (the output of evaluate_motions), "
                         f"got {type(results).__name__}")
+    unknown = [c for c in columns if c not in SUPPLEMENT_COLUMNS]
+    if unknown:
+        raise ValueError(f"columns: unknown {unknown}; expected some of {list(SUPPLEMENT_COLUMNS)}")
     d2o = metrics.d2o_summary(results.d2o, threshold=d2o_threshold)
-    values = (
-        float(np.mean(results.foot_skating)),
-        d2o["pct_within"],
-        d2o["p95"],
-        float(np.mean(results.skeleton_distance)),
-        float(np.mean(results.contact_iou)),
-        metrics.penetration_pass_rate(results.penetration, results.d2o, threshold=penetration_threshold,
-                                      d2o_threshold=d2o_threshold),
-    )
-    return dict(zip(TABLE1_COLUMNS, values))
+    values = {
+        "Foot Skating ↓": float(np.mean(results.foot_skating)),
+        "% D2O ≤ 2cm ↑": d2o["pct_within"],
+        "D2O 95th % ↓": d2o["p95"],
+        "Skel. Dist. ↓": float(np.mean(results.skeleton_distance)),
+        "% Skel. Dist. ≤ 25cm ↑": float(100.0 * np.mean(np.asarray(results.skeleton_distance) <= skeleton_threshold)),
+        "Contact IoU ↑": float(np.mean(results.contact_iou)),
+        "% Pen. ≤ 2cm ↑": metrics.penetration_pass_rate(results.penetration, results.d2o,
+                                                       threshold=penetration_threshold, d2o_threshold=d2o_threshold),
+    }
+    return {column: values[column] for column in columns}
+
+
+def table_counts(results: MotionScores, d2o_threshold: float = 0.02, penetration_threshold: float = 0.02,
+                 skeleton_threshold: float = 0.25) -> dict:
+    """The counts behind :func:`table_row`'s percentages, as ``"k / n"`` strings.
+
+    Returns ``{"D2O ≤ 2cm": reached / all, "Skel. Dist. ≤ 25cm": within / all,
+    "Pen. ≤ 2cm": passed / reached}``.
+    """
+    if not isinstance(results, MotionScores):
+        raise TypeError(f"results: expected MotionScores, got {type(results).__name__}")
+    d2o, pen = np.asarray(results.d2o), np.asarray(results.penetration)
+    reached = d2o <= d2o_threshold
+    n = len(d2o)
+    return {"D2O ≤ 2cm": f"{int(reached.sum())} / {n}",
+            "Skel. Dist. ≤ 25cm": f"{int((np.asarray(results.skeleton_distance) <= skeleton_threshold).sum())} / {n}",
+            "Pen. ≤ 2cm": f"{int((pen[reached] <= penetration_threshold).sum())} / {int(reached.sum())}"}
 
 
 # --------------------------------------------------------------------------- a trained model, end to end

@@ -11,12 +11,17 @@ from __future__ import annotations
 
 from types import MappingProxyType
 
-__all__ = ["TABLE1", "TABLE1_COLUMNS", "TABLE1_METHODS"]
+__all__ = ["TABLE1", "TABLE1_COLUMNS", "TABLE1_METHODS", "SUPPLEMENT_COLUMNS"]
 
 TABLE1_METHODS = ("Cond. VAE", "Cond. MDM", "NIFTY")
 
 # Table 1's columns, in its order (direction of each in its name).
 TABLE1_COLUMNS = ("Foot Skating ↓", "% D2O ≤ 2cm ↑", "D2O 95th % ↓", "Skel. Dist. ↓", "Contact IoU ↑", "% Pen. ≤ 2cm ↑")
+
+# The supplementary tables' columns (Tables 3, 4, 6, 7: Table 1's plus "% Skel. Dist. ≤ 25cm", read with a threshold
+# of 25 cm on the summed skeleton distance, Appendix D.1).
+SUPPLEMENT_COLUMNS = ("Foot Skating ↓", "% D2O ≤ 2cm ↑", "D2O 95th % ↓", "Skel. Dist. ↓", "% Skel. Dist. ≤ 25cm ↑",
+                      "Contact IoU ↑", "% Pen. ≤ 2cm ↑")
 
 
 def _rows(values: dict) -> MappingProxyType:
