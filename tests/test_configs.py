@@ -13,8 +13,8 @@ import pytest
 import torch
 
 from hoi_tutorial.infra import SCALES, artifact_key, scaled_config
-from hoi_tutorial.nifty import data, evaluation, motion_model, motion_prior, rollout, trajectories
-from hoi_tutorial.nifty import toy2d
+from hoi_tutorial.nifty import (baselines, data, evaluation, interaction_field, motion_model, motion_prior, rollout,
+                                toy2d, trajectories)
 
 ACTIONS = ("sit", "lift")
 
@@ -29,6 +29,8 @@ FACTORIES = [
     (trajectories, "trajectory_model_config", trajectories.TrajectoryModelConfig, False),
     (toy2d, "toy2d_config", toy2d.Toy2DConfig, False),
     (evaluation, "evaluation_config", evaluation.EvaluationConfig, False),
+    (interaction_field, "interaction_field_config", interaction_field.InteractionFieldConfig, True),
+    (baselines, "cond_vae_config", baselines.CondVAEConfig, True),
 ]
 
 CASES = [(module, name, cls, scale, action)

@@ -12,6 +12,7 @@ Modules, in the order of the paper:
 - ``motion_model``: the object-conditioned motion diffusion model, its training and sampling (§3.1, Appendix B).
 - ``interaction_field``: the object interaction field F_φ, its training pairs and training (§3.2).
 - ``guidance``: guidance objectives (the field, the nearest anchor) and best-of-N guided sampling (Eq. 4, §4.1).
+- ``baselines``: Table 1's Cond. VAE, a conditional motion VAE on the same data and conditions (§4.3).
 - ``evaluation``: test scenes and the metrics of Table 1 (§4.2, Appendix C.2).
 - ``paper_numbers``: the paper's reported numbers, transcribed, for the tables set beside ours.
 """
