@@ -36,7 +36,7 @@ from ..nn.transformer import TransformerDenoiser
 from ..world.features import NIFTY_STATE_SIZE
 from ..world.skeleton import NUM_BETAS
 from . import motion_model
-from .motion_model import CONDITION_KEYS, OBJECT_POSE_SIZE, InteractionTensors
+from .motion_model import OBJECT_POSE_SIZE, InteractionTensors
 
 __all__ = [
     "CondVAEConfig",
@@ -139,20 +139,11 @@ class CondMotionVAE(nn.Module):
              "z": config.latent},
             width=width, layers=config.layers, heads=config.heads, dropout=config.dropout, max_len=config.max_frames)
 
-    def normalise(self, states: torch.Tensor) -> torch.Tensor:
-        return (states - self.state_mean) / self.state_std
-
-    def denormalise(self, x: torch.Tensor) -> torch.Tensor:
-        return x * self.state_std + self.state_mean
-
-    def encode_condition(self, cond: dict) -> dict:
-        """``{name: (B, d)}`` condition vectors from the raw condition (``CONDITION_KEYS``)."""
-        if not isinstance(cond, dict) or set(cond) != set(CONDITION_KEYS):
-            got = sorted(cond) if isinstance(cond, dict) else type(cond).__name__
-            raise ValueError(f"cond: expected a dict with the keys {list(CONDITION_KEYS)}, got {got}")
-        return {"object_points": self.point_encoder(cond["points"].float()),
-                "object_pose": self.pose_encoder(cond["object_pose"].float()),
-                "betas": cond["betas"].float(), "start_pose": self.normalise(cond["start_pose"].float())}
+    # The state normalisation and the condition encoding are the motion model's, read off the same attributes
+    # (``state_mean``, ``state_std``, ``point_encoder``, ``pose_encoder``).
+    normalise = motion_model.NiftyMotionModel.normalise
+    denormalise = motion_model.NiftyMotionModel.denormalise
+    encode_condition = motion_model.NiftyMotionModel.encode_condition
 
     def posterior(self, x: torch.Tensor, encoded: dict) -> tuple[torch.Tensor, torch.Tensor]:
         """``(μ, log σ²)``, each ``(B, latent)``, of ``q(z | τ, C)`` for standardised motions ``x (B, T, 336)``."""
