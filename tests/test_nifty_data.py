@@ -3,6 +3,7 @@
 The tree tests drive ``grow_trees`` with a stub prior whose rollouts the test controls, so the
 branching factors, NTries, PruneCheck and the root-to-node paths are checked exactly.
 """
+import dataclasses
 import math
 
 import numpy as np
@@ -255,3 +256,64 @@ def test_skating_limit_is_the_worst_window_of_the_data(walk):
         ro.skating_limit_from([walk], frames=1)
     with pytest.raises(ValueError, match="at least one"):
         ro.skating_limit_from([])
+
+
+# --------------------------------------------------------------------------- anchor rounds
+
+
+def test_anchor_rounds_extend_each_subject_without_changing_the_first_round():
+    from hoi_tutorial.nifty.anchors import collect_anchors
+
+    one = collect_anchors("sit", 2, 1, seed=5)
+    three = collect_anchors("sit", 2, 1, seed=5, rounds=3)
+    assert len(three) == 6
+    for a, b in zip(one, three[:2]):  # round 0 is the same whatever follows
+        torch.testing.assert_close(a.pose.joints, b.pose.joints, rtol=0, atol=0)
+    # Round-major, then subject-major: the same two subjects (body shapes) in every round.
+    assert [a.subject for a in three] == [0, 1, 0, 1, 0, 1]
+    for r in range(3):
+        torch.testing.assert_close(three[2 * r].betas, one[0].betas)
+    with pytest.raises(ValueError, match="rounds: expected a positive int"):
+        collect_anchors("sit", 2, 1, seed=5, rounds=0)
+
+
+def test_synthesize_grows_rounds_of_anchors_until_the_minimum(tmp_cache, monkeypatch):
+    """Stub the prior and the trees: each tree of round r keeps ``r`` sequences, so a minimum of 20
+    with 2 anchors per round needs rounds 0..4 (0 + 2 + 4 + 6 + 8 = 20)."""
+    import types
+
+    from hoi_tutorial.infra import TrainedModel
+    from hoi_tutorial.nifty import data
+
+    config = data.synthetic_data_config("sit", n_subjects=2, anchors_per_subject=1, min_sequences=20,
+                                        max_anchor_rounds=6)
+    monkeypatch.setattr(data, "trained_prior", lambda *a, **k: TrainedModel(None, torch.zeros(1), 0.0, {}))
+    monkeypatch.setattr(data, "prune_settings", lambda config: None)
+    grown = []
+
+    def fake_grow_trees(prior, anchors, generator, tree, prune):
+        grown.append(len(anchors))
+        return [types.SimpleNamespace(anchor=a, round=len(grown) - 1) for a in anchors]
+
+    monkeypatch.setattr(data, "grow_trees", fake_grow_trees)
+    monkeypatch.setattr(data.rollout, "tree_paths", lambda tree: [tree.round] * tree.round)
+    monkeypatch.setattr(data, "start_distance", lambda path, obj: 1.0)
+    empty = {"local_rotations": [], "root_position": [], "anchor": np.zeros(0, dtype=np.int64),
+             "depth": np.zeros(0, dtype=np.int64), "leaf": np.zeros(0, dtype=bool), "trees": []}
+    monkeypatch.setattr(data, "_paths_payload", lambda trees: dict(empty))
+    with pytest.warns(RuntimeWarning, match="fewer than min_sequences=20"):  # the stub payload keeps no paths
+        dataset = data.synthesize(config, progress=False)
+    assert grown == [2, 2, 2, 2, 2]
+    assert dataset.stats["anchor_rounds"] == 5 and len(dataset.anchors) == 10
+    grown.clear()
+    monkeypatch.setattr(data.rollout, "tree_paths", lambda tree: [])  # never enough: stops at the cap
+    with pytest.warns(RuntimeWarning):
+        data.synthesize(dataclasses.replace(config, seed=1), progress=False)
+    assert grown == [2] * 6
+
+
+def test_synthetic_data_config_checks_the_minimum():
+    from hoi_tutorial.nifty import data
+
+    with pytest.raises(ValueError, match="min_sequences"):
+        data.synthetic_data_config("sit", min_sequences=0)

@@ -48,7 +48,11 @@ def test_scenes_cycle_anchors_and_respect_the_distance_range(sit_case):
     scenes = evaluation.test_scenes(anchors, 5, (1.0, 1.5), seed=3)
     assert [s.anchor for s in scenes] == [0, 1, 0, 1, 0]
     for scene in scenes:
-        assert scene.obj is anchors[scene.anchor].obj
+        # A held-out instance: the anchor's category and placement, sizes of its own.
+        source = anchors[scene.anchor].obj
+        assert scene.obj is not source and scene.obj.category == source.category
+        np.testing.assert_array_equal(scene.obj.pose, source.pose)
+        assert scene.obj.params != source.params
         assert len(scene.start) == 2
         torch.testing.assert_close(scene.start.betas, anchors[scene.anchor].betas)
         assert 1.0 <= scene.distance <= 1.5
@@ -58,6 +62,12 @@ def test_scenes_cycle_anchors_and_respect_the_distance_range(sit_case):
         assert scene.start.joints[0, :, 2].min() > -0.05  # standing on the ground, not under it
         vertices = body_from_motion(scene.start, frames=[0])[0].double().numpy()
         assert scene.obj.sdf(vertices).min() > 0.05  # clear of the object
+
+
+def test_scenes_can_use_the_anchors_own_objects(sit_case):
+    _, anchors = sit_case
+    scenes = evaluation.test_scenes(anchors, 3, (1.0, 1.5), seed=3, held_out=False)
+    assert all(scene.obj is anchors[scene.anchor].obj for scene in scenes)
 
 
 def test_scenes_are_deterministic_for_a_seed(sit_case):

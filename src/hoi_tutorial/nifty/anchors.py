@@ -59,7 +59,8 @@ def _frame(motion: Motion, t: int) -> PoseTrack:
     return PoseTrack(motion.local_rotations[t], motion.root_position[t], motion.joints[t])
 
 
-def collect_anchors(action: str, n_subjects: int, anchors_per_subject: int, seed: int) -> list[Anchor]:
+def collect_anchors(action: str, n_subjects: int, anchors_per_subject: int, seed: int,
+                    rounds: int = 1) -> list[Anchor]:
     """Generate interaction clips and take their anchor frames.
 
     Subject ``s`` gets a body shape from ``mocap.sample_betas``; each of its anchors uses a new
@@ -69,23 +70,28 @@ def collect_anchors(action: str, n_subjects: int, anchors_per_subject: int, seed
     Args:
         action: ``"sit"`` or ``"lift"``.
         n_subjects: number of toy subjects (NIFTY: 7).
-        anchors_per_subject: anchors per subject (NIFTY: about 25 sitting, 10 lifting).
+        anchors_per_subject: anchors per subject and round (NIFTY: about 25 sitting, 10 lifting).
         seed: base seed.
+        rounds: rounds of anchors; round ``r`` gives each subject its anchors
+            ``r * anchors_per_subject ...`` (the same subjects, more of their clips), so the
+            first round does not depend on how many follow.
     Returns:
-        ``n_subjects * anchors_per_subject`` anchors, subject-major.
+        ``rounds * n_subjects * anchors_per_subject`` anchors, round-major, then subject-major.
     """
     check_choice(action, tuple(ANCHOR_OBJECTS), "action")
-    for name, value in (("n_subjects", n_subjects), ("anchors_per_subject", anchors_per_subject)):
+    for name, value in (("n_subjects", n_subjects), ("anchors_per_subject", anchors_per_subject),
+                        ("rounds", rounds)):
         if not isinstance(value, (int, np.integer)) or value < 1:
             raise ValueError(f"{name}: expected a positive int, got {value!r}")
     seq = np.random.SeedSequence([int(seed), 7 if action == "sit" else 11])
     subject_seeds = seq.spawn(n_subjects)
     categories = ANCHOR_OBJECTS[action]
-    anchors = []
+    per_subject = []
     for s, subject_seq in enumerate(subject_seeds):
         rng = np.random.default_rng(subject_seq)
         betas = sample_betas(rng)
-        for i in range(anchors_per_subject):
+        anchors = []
+        for i in range(anchors_per_subject * rounds):
             category = categories[(s + i) % len(categories)]
             obj = make_object(category, seed=rng)
             clip = generate_clip(action, seed=int(rng.integers(2**31)), betas=betas, obj=obj)
@@ -93,7 +99,9 @@ def collect_anchors(action: str, n_subjects: int, anchors_per_subject: int, seed
             if a + 1 >= len(clip):
                 raise RuntimeError(f"{action} clip ends at its anchor frame; expected frames after it")
             anchors.append(Anchor(action, _frame(clip, a), _frame(clip, a + 1), clip.betas, s, obj, clip))
-    return anchors
+        per_subject.append(anchors)
+    k = anchors_per_subject
+    return [anchor for r in range(rounds) for anchors in per_subject for anchor in anchors[r * k:(r + 1) * k]]
 
 
 def stack_anchor_poses(anchors: Sequence[Anchor]) -> tuple[PoseTrack, PoseTrack]:

@@ -8,20 +8,22 @@ Each stage goes through the artifact cache, keyed by its configuration and by th
 Objects and anchors are cheap and deterministic, so they are regenerated rather than stored;
 the cache keeps the trained prior and the rollout paths.
 
-Scaling (paper -> toy): 174 sitting / 72 lifting anchors from 7 subjects -> 4 subjects x 2 anchors;
+Scaling (paper -> toy): 174 sitting / 72 lifting anchors from 7 subjects -> 4 subjects x 2 anchors,
+with further rounds of 8 anchors while fewer than 48 sequences are kept (at most 8 rounds);
 tree depth 7 -> 4 and, with it, the start-distance filter 1 m -> 0.75 m; 200K / 110K sequences -> a few hundred; HuMoR trained on AMASS for days ->
 the prior trained on a few dozen toy clips for under a minute.
 """
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
 import torch
 
-from .._validate import check_choice
+from .._validate import check_choice, check_positive_ints
 from ..infra import TrainedModel, load_or_build, state_dict_to_cpu, training
 from ..infra.presets import check_scale, scaled_config
 from .. import world
@@ -77,6 +79,12 @@ class SyntheticDataConfig:
             second (our addition to NIFTY's checks, see ``rollout.PruneConfig.skating``). Off in
             every preset: at toy scale it leaves few sitting paths (chapter 3 measures the share
             of the kept sequences that would pass it).
+        min_sequences: the dataset's stated minimum: while fewer sequences are kept, a further
+            round of anchors (``anchors_per_subject`` more per subject) grows its trees (our
+            addition: NIFTY's 174 / 72 anchors always give enough paths, a handful of toy anchors
+            may give none for an unlucky seed).
+        max_anchor_rounds: at most this many rounds of anchors; :func:`synthesize` warns when the
+            minimum is still not reached.
         seed: base seed (:func:`synthetic_data_config` also gives it to the prior).
     """
 
@@ -89,7 +97,13 @@ class SyntheticDataConfig:
     tree: TreeConfig = field(default_factory=TreeConfig)
     prune: PruneConfig = field(default_factory=PruneConfig)
     check_skating: bool = False
+    min_sequences: int = 48
+    max_anchor_rounds: int = 8
     seed: int = 0
+
+    def __post_init__(self):
+        check_positive_ints(self, ("clips_per_kind", "mocap_subjects", "n_subjects", "anchors_per_subject",
+                                   "min_sequences", "max_anchor_rounds"))
 
 
 # What the larger scales change from the defaults (the toy preset); the prior and the trees take
@@ -189,8 +203,9 @@ class SyntheticDataset:
         leaves: per anchor, the indices into ``all_paths`` of its root-to-leaf paths (Fig. 4).
         all_paths: every root-to-node path before the 1 m filter, as ``InteractionSequence``.
         tree_stats: per anchor, survival rates and failure counts of Algorithm 1.
-        stats: totals (``paths``, ``kept``, ``filtered_near_start``) and ``prior``, the prior's
-            training seconds, clips and frames.
+        stats: totals (``paths``, ``kept``, ``filtered_near_start``), ``anchor_rounds`` (rounds of
+            anchors grown to reach ``config.min_sequences``) and ``prior``, the prior's training
+            seconds, clips and frames.
     """
 
     config: SyntheticDataConfig
@@ -200,6 +215,18 @@ class SyntheticDataset:
     all_paths: list
     tree_stats: list
     stats: dict
+
+    @property
+    def training_anchor_index(self) -> list[int]:
+        """Indices into ``anchors`` of the anchors with at least one kept sequence, ascending."""
+        used = {id(s.anchor) for s in self.sequences}
+        return [i for i, anchor in enumerate(self.anchors) if id(anchor) in used]
+
+    @property
+    def training_anchors(self) -> list:
+        """The anchors of the training data: those with at least one kept sequence (NIFTY §4.2's
+        nearest-neighbour search for skeleton distance and contact IoU runs over these)."""
+        return [self.anchors[i] for i in self.training_anchor_index]
 
 
 def _paths_payload(trees) -> dict:
@@ -228,17 +255,29 @@ def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool 
     """Run (or load) the whole synthetic-data pipeline for one interaction."""
     trained = trained_prior(config, device=device, progress=progress)
     prior = trained.model
-    dataset_anchors = collect_anchors(config.action, config.n_subjects, config.anchors_per_subject, config.seed)
+    per_round = config.n_subjects * config.anchors_per_subject
+
+    def round_anchors(rounds):
+        return collect_anchors(config.action, config.n_subjects, config.anchors_per_subject, config.seed, rounds)
 
     def build():
         prune = prune_settings(config)
-        generator = torch.Generator().manual_seed(config.seed)
-        trees = grow_trees(prior, dataset_anchors, generator, config.tree, prune)
-        return _paths_payload(trees)
+        generator = torch.Generator().manual_seed(config.seed)  # one stream across rounds
+        trees, kept = [], 0
+        for r in range(config.max_anchor_rounds):
+            new_anchors = round_anchors(r + 1)[r * per_round:]
+            new_trees = grow_trees(prior, new_anchors, generator, config.tree, prune)
+            trees += new_trees
+            kept += sum(start_distance(path, tree.anchor.obj) >= config.tree.min_start_distance
+                        for tree in new_trees for path in rollout.tree_paths(tree))
+            if kept >= config.min_sequences:
+                break
+        return {**_paths_payload(trees), "rounds": r + 1}
 
     key = {"config": dataclasses.asdict(config)}
     payload = load_or_build(f"nifty_{config.action}_rollouts", key, build,
                             code=(motion_prior, rollout, anchors, world))
+    dataset_anchors = round_anchors(int(payload["rounds"]))
     action = action_id(config.action)
     all_paths = []
     for rots, roots, a, d in zip(payload["local_rotations"], payload["root_position"], payload["anchor"], payload["depth"]):
@@ -252,7 +291,11 @@ def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool 
     leaves = [[i for i in range(len(all_paths)) if payload["anchor"][i] == a and payload["leaf"][i]]
               for a in range(len(dataset_anchors))]
     stats = {"paths": len(all_paths), "kept": len(sequences), "filtered_near_start": len(all_paths) - len(sequences),
-             "prior": {"seconds": trained.seconds, **trained.details}}
+             "anchor_rounds": int(payload["rounds"]), "prior": {"seconds": trained.seconds, **trained.details}}
+    if len(sequences) < config.min_sequences:
+        warnings.warn(f"synthesize({config.action!r}, seed={config.seed}): {len(sequences)} sequences kept after "
+                      f"{payload['rounds']} rounds of anchors, fewer than min_sequences={config.min_sequences}",
+                      RuntimeWarning, stacklevel=2)
     return SyntheticDataset(config, dataset_anchors, sequences, leaves, all_paths, payload["trees"], stats)
 
 

@@ -2,9 +2,10 @@
 
 Test scenes are *not* made with the data pipeline (that would look too much like the training
 data): NIFTY places objects at random and starts the person from a random pose. Here a scene takes
-one of the training anchors' objects, and a person of that anchor's body shape standing or walking
-(a random frame of a toy-mocap ``idle`` or ``walk`` clip, the prior's own kind of motion) at a
-random distance and heading around it.
+one of the training anchors (those that grew kept sequences), a *held-out instance* of its object's
+category (new sizes, never seen in training) where that object stood, and a person of that
+anchor's body shape standing or walking (a random frame of a toy-mocap ``idle`` or ``walk`` clip,
+the prior's own kind of motion) at a random distance and heading around it.
 
 Per generated motion (its last frame is the interaction pose):
 
@@ -21,7 +22,7 @@ Per generated motion (its last frame is the interaction pose):
 
 :func:`table_row` condenses them as Table 1 does.
 
-Scaled down: 500 test scenes per action -> a few dozen; sequences of 150 frames -> the model's
+Scaled down: 500 test scenes per action -> 32; sequences of 150 frames -> the model's
 ``max_frames``.
 """
 from __future__ import annotations
@@ -44,8 +45,9 @@ from ..world import body
 from ..world.features import NIFTY_STATE_LAYOUT, canonicalize
 from ..world.mocap import generate_clip
 from ..world.motion import Motion
+from ..world.objects import make_object
 from . import data
-from . import guidance, interaction_field, motion_model
+from . import baselines, guidance, interaction_field, motion_model
 from .motion_model import anchor_skeleton_distance, final_pelvis_distance
 from .paper_numbers import SUPPLEMENT_COLUMNS, TABLE1_COLUMNS
 
@@ -64,6 +66,8 @@ __all__ = [
     "GuidedEvaluation",
     "evaluate_guided",
     "build_guided_evaluation",
+    "evaluate_cond_vae",
+    "build_table1",
     "APPROACH_QUANTILE",
     "approach_length",
     "evaluate_motions",
@@ -82,10 +86,12 @@ class TestScene:
     """One evaluation scene.
 
     Attributes:
-        obj: the object, placed in the world.
+        obj: the object, placed in the world (a held-out instance unless ``test_scenes`` was told
+            otherwise).
         start: a two-frame world ``Motion``: the start pose ``X_0`` and the frame after it (its
             velocities).
-        anchor: index of the training anchor whose object and body shape the scene uses.
+        anchor: index into the anchors given to :func:`test_scenes` of the one whose object
+            category, placement and body shape the scene uses.
         distance: metres, the start pelvis's ground-plane distance to the object's centre.
     """
 
@@ -104,7 +110,7 @@ class MotionScores:
         d2o: metres, the final body's distance to the object's surface.
         penetration: metres, the approach's penetration score (NaN where D2O > 2 cm: not scored).
         skeleton_distance: metres summed over the 22 joints, final pose to the nearest anchor pose.
-        nearest_anchor: int, that anchor's index.
+        nearest_anchor: int, that anchor's index in the ``anchors`` given to :func:`evaluate_motions`.
         contact_iou: IoU of the final pose's contacting vertices with the nearest anchor's.
         start_distance, final_distance: metres, the pelvis's ground distance to the object's centre
             at the first and the last frame.
@@ -176,11 +182,12 @@ def _object_centre(obj) -> np.ndarray:
 
 @single_threaded
 def test_scenes(anchors: Sequence, n_scenes: int, distance_range: tuple[float, float], seed: int = 0,
-                kinds: tuple[str, ...] = ("idle", "walk")) -> list[TestScene]:
+                kinds: tuple[str, ...] = ("idle", "walk"), held_out: bool = True) -> list[TestScene]:
     """Random test scenes around the anchors' objects (NIFTY §4.2, "test scenes").
 
-    Scene ``i`` uses anchor ``i mod len(anchors)`` (its object where it stands, its body shape).
-    The start pose is a random frame of a toy-mocap clip of a kind drawn from ``kinds``, moved so
+    Scene ``i`` uses anchor ``i mod len(anchors)``: its body shape, and a new instance of its
+    object's category (``held_out``, sizes drawn afresh, so the model meets an object it never saw)
+    or the anchor's own object, placed where the anchor's object stands. The start pose is a random frame of a toy-mocap clip of a kind drawn from ``kinds``, moved so
     that its pelvis stands ``d ~ U(distance_range)`` metres from the object's centre in a random
     direction, facing a random heading (uniform over the circle: the person may start with the
     object behind them); placements where the body would come within 5 cm of the object are
@@ -192,6 +199,7 @@ def test_scenes(anchors: Sequence, n_scenes: int, distance_range: tuple[float, f
         distance_range: ``(low, high)`` metres, ``0 < low ≤ high``.
         seed: seeds everything random here.
         kinds: toy-mocap kinds the start pose comes from.
+        held_out: a new instance of each anchor's object category (True) or the anchor's object.
     Returns:
         ``n_scenes`` :class:`TestScene`.
     """
@@ -210,6 +218,7 @@ def test_scenes(anchors: Sequence, n_scenes: int, distance_range: tuple[float, f
     for i in range(int(n_scenes)):
         a = i % len(anchors)
         anchor = anchors[a]
+        obj = make_object(anchor.obj.category, seed=rng).with_pose(anchor.obj.pose) if held_out else anchor.obj
         kind = str(rng.choice(kinds))
         clip = generate_clip(kind, seed=int(rng.integers(2**31)), betas=anchor.betas)
         t = int(rng.integers(0, len(clip) - 1))
@@ -218,16 +227,16 @@ def test_scenes(anchors: Sequence, n_scenes: int, distance_range: tuple[float, f
             distance = float(rng.uniform(low, high))
             direction = float(rng.uniform(0.0, 2.0 * math.pi))
             heading = float(rng.uniform(0.0, 2.0 * math.pi))
-            where = _object_centre(anchor.obj) + distance * np.array([math.cos(direction), math.sin(direction)])
+            where = _object_centre(obj) + distance * np.array([math.cos(direction), math.sin(direction)])
             translation = torch.tensor([where[0], where[1], 0.0], dtype=pose.root_position.dtype)
             start = pose.transformed(heading, translation)
             # The person must start clear of the object (a wide sofa reaches past the nearest starts).
             vertices = body.body_from_motion(start, frames=[0])[0]
-            if float(np.min(anchor.obj.sdf(vertices.detach().double().numpy()))) > _START_CLEARANCE:
+            if float(np.min(obj.sdf(vertices.detach().double().numpy()))) > _START_CLEARANCE:
                 break
         else:
-            raise RuntimeError(f"test_scenes: no start {low}-{high} m from the {anchor.obj.category} clears it")
-        scenes.append(TestScene(anchor.obj, start, a, distance))
+            raise RuntimeError(f"test_scenes: no start {low}-{high} m from the {obj.category} clears it")
+        scenes.append(TestScene(obj, start, a, distance))
     return scenes
 
 
@@ -491,7 +500,7 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
     if not dataset.sequences:
         raise ValueError("dataset: expected at least one training sequence")
     distance_range = scene_distance_range(dataset)
-    scenes = test_scenes(dataset.anchors, config.n_scenes, distance_range, seed=config.seed)
+    scenes = test_scenes(dataset.training_anchors, config.n_scenes, distance_range, seed=config.seed)
     training_index = _subset(len(dataset.sequences), config.n_training, config.seed, 1)
     approach_index = _subset(len(dataset.sequences), config.n_approach_sequences, config.seed, 2)
     training = [dataset.sequences[i] for i in training_index]
@@ -527,7 +536,7 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
         centres = torch.as_tensor(np.stack([_object_centre(obj) for obj in objects]))
         positions_end = (last[:, :2] - centres).norm(dim=-1).numpy()
         for name, (ms, objs) in parts.items():
-            scores = evaluate_motions(ms, objs, dataset.anchors, n_approach, config.n_object_points,
+            scores = evaluate_motions(ms, objs, dataset.training_anchors, n_approach, config.n_object_points,
                                       config.seed).as_dict()
             if name == "scenes":
                 scores["final_distance_positions"] = positions_end[:len(scenes)]
@@ -627,7 +636,7 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
                                       generator=torch.Generator().manual_seed(config.seed),
                                       guidance_scale=config.guidance_scale, device=device)
         motions = motion_model.states_to_motions(out.states, cond["betas"], placement)
-        scores = evaluate_motions(motions, [s.obj for s in scenes], dataset.anchors, unguided.n_approach,
+        scores = evaluate_motions(motions, [s.obj for s in scenes], dataset.training_anchors, unguided.n_approach,
                                   config.n_object_points, config.seed)
         return {"metrics": scores.as_dict(), **_motions_payload(motions), "objective": out.objective.numpy(),
                 "all_objectives": out.all_objectives.numpy()}
@@ -652,3 +661,59 @@ def build_guided_evaluation(data_config, model_config, field_config, config: Opt
     dataset = data.synthesize(data_config, device=device, progress=False)
     evaluate_guided(dataset, model_config, field_config, config, n_samples=n_samples, alpha=alpha, n_scenes=n_scenes,
                     device=device)
+
+
+# --------------------------------------------------------------------------- the Cond. VAE baseline
+
+
+def evaluate_cond_vae(dataset, model_config, vae_config, config: Optional[EvaluationConfig] = None, *,
+                      device="cpu") -> ScoredMotions:
+    """NIFTY's Cond. VAE baseline (§4.3) on the test scenes: one sample per scene, scored with
+    :func:`evaluate_motions`, once (then from the cache).
+
+    The scenes, ``N_A`` and the point sampling are those of :func:`evaluate_motion_model` for the same
+    ``config``, so the rows of Table 1 compare scene by scene.
+
+    Args:
+        dataset: a ``nifty.data.SyntheticDataset``.
+        model_config: the motion model's configuration (its evaluation gives the scenes and ``N_A``).
+        vae_config: the ``nifty.baselines.CondVAEConfig`` of the baseline.
+        config: an :class:`EvaluationConfig` (default: the toy preset).
+        device: where to train (if needed) and sample.
+    Returns:
+        :class:`ScoredMotions`, one per test scene.
+    """
+    config = config or EvaluationConfig()
+    if vae_config.max_frames != model_config.max_frames:
+        raise ValueError(f"vae_config.max_frames: expected the motion model's {model_config.max_frames}, "
+                         f"got {vae_config.max_frames}")
+    unguided = evaluate_motion_model(dataset, model_config, config, device=device)
+    scenes = unguided.test_scenes
+
+    def build():
+        model = baselines.trained_cond_vae(dataset, vae_config, device=device).model
+        conditions = [motion_model.interaction_condition(s.start, s.obj, vae_config.n_points, seed=config.seed)
+                      for s in scenes]
+        cond = {name: torch.stack([c[name] for c in conditions]) for name in motion_model.CONDITION_KEYS}
+        placement = torch.stack([c["world_from_canonical"] for c in conditions])
+        states = baselines.sample_cond_vae(model, cond, generator=torch.Generator().manual_seed(config.seed))
+        motions = motion_model.states_to_motions(states, cond["betas"], placement)
+        scores = evaluate_motions(motions, [s.obj for s in scenes], dataset.training_anchors, unguided.n_approach,
+                                  config.n_object_points, config.seed)
+        return {"metrics": scores.as_dict(), **_motions_payload(motions)}
+
+    key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config),
+           "vae": dataclasses.asdict(vae_config), "evaluation": dataclasses.asdict(config)}
+    code = motion_model.model_code() + (sys.modules[__name__], baselines, body, metrics)
+    artifact = load_or_build(f"nifty_{dataset.config.action}_cond_vae_evaluation", key, build, code=code)
+    motions = _payload_motions(artifact, [s.start.betas for s in scenes])
+    return ScoredMotions(motions, MotionScores(**artifact["metrics"]))
+
+
+def build_table1(data_config, model_config, field_config, vae_config, config: Optional[EvaluationConfig] = None, *,
+                 n_samples: int = 10, device="cpu") -> None:
+    """Every artifact of one action's Table 1 (Cond. VAE, Cond. MDM, NIFTY on all test scenes), built
+    or loaded: for ``infra.warm_cache``, which builds the two actions at once."""
+    dataset = data.synthesize(data_config, device=device, progress=False)
+    evaluate_guided(dataset, model_config, field_config, config, n_samples=n_samples, device=device)
+    evaluate_cond_vae(dataset, model_config, vae_config, config, device=device)
