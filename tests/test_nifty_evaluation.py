@@ -265,3 +265,61 @@ def test_evaluate_guided_keeps_the_best_candidate_and_caches(sit_case, tmp_cache
     np.testing.assert_array_equal(result.samples.metrics.d2o, again.samples.metrics.d2o)
     with pytest.raises(ValueError, match="n_scenes"):
         evaluation.evaluate_guided(dataset, model_config, field_config, config, n_scenes=0)
+
+
+def test_penetration_by_approach_length_agrees_with_the_per_motion_score(sit_case):
+    records, anchors = sit_case
+    motions, objects = [r.motion for r in records], [r.obj for r in records]
+    values = [10, 30, 60, 10_000]  # the last is clamped to each motion's length
+    for n_approach in (10, 30, 60):
+        scores = evaluation.evaluate_motions(motions, objects, anchors, n_approach=n_approach, n_object_points=500)
+        curve = evaluation.penetration_by_approach_length(motions, objects, scores.d2o, values, n_object_points=500,
+                                                          threshold=0.02)
+        assert curve["n_scored"] == int((scores.d2o <= 0.02).sum()) == len(records)
+        expected = 100.0 * np.mean(scores.penetration <= 0.02)
+        assert curve["pct"][values.index(n_approach)] == pytest.approx(expected)
+    # A threshold no score passes and one every score passes bound the curve.
+    assert (evaluation.penetration_by_approach_length(motions, objects, scores.d2o, values, n_object_points=500,
+                                                      threshold=-1.0)["pct"] == 0).all()
+    assert (evaluation.penetration_by_approach_length(motions, objects, scores.d2o, values, n_object_points=500,
+                                                      threshold=1e9)["pct"] == 100).all()
+    # Nothing reaches the object: nothing is scored.
+    far = evaluation.penetration_by_approach_length(motions, objects, np.ones(len(motions)), values)
+    assert far["n_scored"] == 0 and np.isnan(far["pct"]).all()
+    with pytest.raises(ValueError, match="n_approach_values"):
+        evaluation.penetration_by_approach_length(motions, objects, scores.d2o, [0, 10])
+    with pytest.raises(ValueError, match="d2o"):
+        evaluation.penetration_by_approach_length(motions, objects, scores.d2o[:1], values)
+
+
+def test_guided_blocks_are_cached_apart_and_reused(sit_case, tmp_cache, monkeypatch):
+    from hoi_tutorial.nifty.interaction_field import interaction_field_config
+
+    monkeypatch.setattr(evaluation, "GUIDED_SCENE_BLOCK", 1)
+    dataset, model_config = _tiny_dataset_and_model(sit_case)
+    field_config = interaction_field_config("sit", "toy", width=32, layers=1, pointnet_hidden=(32,),
+                                            copies_per_sequence=2, steps=5, batch_size=4)
+    config = evaluation.EvaluationConfig(n_scenes=3, n_training=2, n_approach_sequences=2, n_object_points=200)
+    first = evaluation.evaluate_guided(dataset, model_config, field_config, config, n_samples=2, alpha=0.5, n_scenes=1)
+    both = evaluation.evaluate_guided(dataset, model_config, field_config, config, n_samples=2, alpha=0.5, n_scenes=2)
+    assert len(list(tmp_cache.glob("nifty_sit_guided_evaluation-*.pt"))) == 2  # one block each, the first reused
+    torch.testing.assert_close(first.samples.motions[0].joints, both.samples.motions[0].joints, rtol=0, atol=0)
+    assert len(both.samples.metrics) == 2 and both.all_objectives.shape == (2, 2)
+
+
+def test_evaluate_cond_vae_scores_one_sample_per_scene(sit_case, tmp_cache):
+    from hoi_tutorial.nifty import baselines
+
+    dataset, model_config = _tiny_dataset_and_model(sit_case)
+    vae_config = baselines.cond_vae_config("sit", "toy", max_frames=FRAMES, width=32, layers=1, heads=4, latent=4,
+                                           n_points=64, pointnet_hidden=(32,), steps=3, batch_size=2)
+    config = evaluation.EvaluationConfig(n_scenes=3, n_training=2, n_approach_sequences=2, n_object_points=200)
+    result = evaluation.evaluate_cond_vae(dataset, model_config, vae_config, config)
+    assert len(result.motions) == 3 and len(result.metrics) == 3
+    assert all(len(m) == FRAMES and torch.isfinite(m.joints).all() for m in result.motions)
+    again = evaluation.evaluate_cond_vae(dataset, model_config, vae_config, config)
+    np.testing.assert_array_equal(result.metrics.d2o, again.metrics.d2o)
+    assert len(list(tmp_cache.glob("nifty_sit_cond_vae_evaluation-*.pt"))) == 1
+    with pytest.raises(ValueError, match="max_frames"):
+        evaluation.evaluate_cond_vae(dataset, model_config, dataclasses.replace(vae_config, max_frames=FRAMES + 1),
+                                     config)

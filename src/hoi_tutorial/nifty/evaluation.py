@@ -71,6 +71,7 @@ __all__ = [
     "APPROACH_QUANTILE",
     "approach_length",
     "evaluate_motions",
+    "penetration_by_approach_length",
     "table_row",
     "table_counts",
     "TABLE1_COLUMNS",
@@ -78,6 +79,9 @@ __all__ = [
 
 # NIFTY Appendix C.2: the median approach length for sitting, the 15th percentile for lifting.
 APPROACH_QUANTILE = {"sit": 0.5, "lift": 0.15}
+
+# Guided samples are drawn and cached in blocks of this many test scenes (see evaluate_guided).
+GUIDED_SCENE_BLOCK = 8
 
 
 
@@ -362,6 +366,52 @@ def evaluate_motions(motions: Sequence[Motion], objects: Sequence, anchors: Sequ
     return MotionScores(**{name: np.asarray(values) for name, values in out.items()})
 
 
+@single_threaded
+def penetration_by_approach_length(motions: Sequence[Motion], objects: Sequence, d2o, n_approach_values,
+                                   n_object_points: int = 2000, seed: int = 0, reach: float = 0.02,
+                                   threshold: float = 0.02) -> dict:
+    """% Pen. ≤ 2 cm as a function of ``N_A`` (NIFTY Appendix C.2, Figs. 10 and 11).
+
+    Only the motions that reach the object (``d2o ≤ reach``) are scored, as in Table 1. For each, the
+    per-frame penetration (summed depth of the object's surface points inside the body) is computed
+    once; the penetration score for ``N_A`` is its mean over the first ``N_A`` frames
+    (:func:`~hoi_tutorial.metrics.penetration_score`), clamped to each motion's length.
+
+    Args:
+        motions: ``N`` world-frame motions.
+        objects: the object of each.
+        d2o: ``(N,)`` metres, their final distance to the object (``MotionScores.d2o``).
+        n_approach_values: the ``N_A`` values (frames, positive ints).
+        n_object_points, seed: the object's surface points (as :func:`evaluate_motions`).
+        reach: metres, the D2O below which a motion is scored.
+        threshold: metres, the penetration score that counts as "no penetration".
+    Returns:
+        ``{"n_approach": (V,) int, "pct": (V,) % of the scored motions with penetration ≤ threshold
+        (NaN when none is scored), "n_scored": int}``.
+    """
+    motions, objects = list(motions), list(objects)
+    d2o = np.asarray(d2o, dtype=np.float64)
+    if not motions or len(motions) != len(objects) or d2o.shape != (len(motions),):
+        raise ValueError(f"motions, objects, d2o: expected equal, non-zero lengths, got {len(motions)}, "
+                         f"{len(objects)}, {d2o.shape}")
+    values = np.asarray([int(v) for v in n_approach_values], dtype=np.int64)
+    if values.size == 0 or values.min() < 1:
+        raise ValueError(f"n_approach_values: expected positive ints, got {list(n_approach_values)!r}")
+    clouds, scores = {}, []
+    for motion, obj, distance in zip(motions, objects, d2o):
+        if distance > reach:
+            continue
+        if id(obj) not in clouds:
+            clouds[id(obj)] = _world_object_points(obj, n_object_points, seed)
+        depth = np.clip(-_penetration_per_frame(motion, clouds[id(obj)]), 0.0, None).sum(-1)  # (T,)
+        mean_upto = np.cumsum(depth) / np.arange(1, len(depth) + 1)
+        scores.append(mean_upto[np.minimum(values, len(depth)) - 1])
+    if not scores:
+        return {"n_approach": values, "pct": np.full(len(values), np.nan), "n_scored": 0}
+    scores = np.stack(scores)  # (scored, V)
+    return {"n_approach": values, "pct": 100.0 * (scores <= threshold).mean(axis=0), "n_scored": len(scores)}
+
+
 def table_row(results: MotionScores, d2o_threshold: float = 0.02, penetration_threshold: float = 0.02,
               skeleton_threshold: float = 0.25, columns=TABLE1_COLUMNS) -> dict:
     """One row of NIFTY's tables from :class:`MotionScores` (:func:`evaluate_motions`).
@@ -624,28 +674,41 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
     if not scenes:
         raise ValueError(f"n_scenes: expected at least one test scene, got {n_scenes!r}")
 
-    def build():
+    def build(start, stop):
+        block = scenes[start:stop]
         model = motion_model.trained_motion_model(dataset, model_config, device=device).model
         field = interaction_field.trained_interaction_field(dataset, model_config, field_config, device=device).model
         conditions = [motion_model.interaction_condition(s.start, s.obj, model_config.n_points, seed=config.seed)
-                      for s in scenes]
+                      for s in block]
         cond = {name: torch.stack([c[name] for c in conditions]) for name in motion_model.CONDITION_KEYS}
         placement = torch.stack([c["world_from_canonical"] for c in conditions])
+        generator = torch.Generator().manual_seed(int(np.random.SeedSequence([config.seed, start]).generate_state(1)[0]))
         out = guidance.guided_samples(model, cond, functools.partial(guidance.field_objective, field),
-                                      n_samples=n_samples, alpha=alpha,
-                                      generator=torch.Generator().manual_seed(config.seed),
+                                      n_samples=n_samples, alpha=alpha, generator=generator,
                                       guidance_scale=config.guidance_scale, device=device)
         motions = motion_model.states_to_motions(out.states, cond["betas"], placement)
-        scores = evaluate_motions(motions, [s.obj for s in scenes], dataset.training_anchors, unguided.n_approach,
+        scores = evaluate_motions(motions, [s.obj for s in block], dataset.training_anchors, unguided.n_approach,
                                   config.n_object_points, config.seed)
         return {"metrics": scores.as_dict(), **_motions_payload(motions), "objective": out.objective.numpy(),
                 "all_objectives": out.all_objectives.numpy()}
 
-    key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config),
-           "field": dataclasses.asdict(field_config), "evaluation": dataclasses.asdict(config),
-           "n_samples": int(n_samples), "alpha": alpha, "n_scenes": len(scenes)}
     code = motion_model.model_code() + (sys.modules[__name__], interaction_field, guidance, body, metrics)
-    artifact = load_or_build(f"nifty_{dataset.config.action}_guided_evaluation", key, build, code=code)
+    parts = []
+    # Blocks of GUIDED_SCENE_BLOCK scenes, each cached on its own with its own noise: the first scenes give the
+    # same samples whether 8 or 32 are asked for, so a later, larger evaluation reuses an earlier one.
+    for start in range(0, len(scenes), GUIDED_SCENE_BLOCK):
+        stop = min(start + GUIDED_SCENE_BLOCK, len(scenes))
+        key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config),
+               "field": dataclasses.asdict(field_config), "evaluation": dataclasses.asdict(config),
+               "n_samples": int(n_samples), "alpha": alpha, "scenes": [start, stop]}
+        parts.append(load_or_build(f"nifty_{dataset.config.action}_guided_evaluation", key,
+                                   functools.partial(build, start, stop), code=code))
+    artifact = {"metrics": {name: np.concatenate([np.asarray(p["metrics"][name]) for p in parts])
+                            for name in parts[0]["metrics"]},
+                "local_rotations": torch.cat([p["local_rotations"] for p in parts]),
+                "root_position": torch.cat([p["root_position"] for p in parts]),
+                "objective": np.concatenate([np.asarray(p["objective"]) for p in parts]),
+                "all_objectives": np.concatenate([np.asarray(p["all_objectives"]) for p in parts])}
     motions = _payload_motions(artifact, [s.start.betas for s in scenes])
     return GuidedEvaluation(test_scenes=scenes, samples=ScoredMotions(motions, MotionScores(**artifact["metrics"])),
                             objective=np.asarray(artifact["objective"]),
