@@ -323,3 +323,38 @@ def test_evaluate_cond_vae_scores_one_sample_per_scene(sit_case, tmp_cache):
     with pytest.raises(ValueError, match="max_frames"):
         evaluation.evaluate_cond_vae(dataset, model_config, dataclasses.replace(vae_config, max_frames=FRAMES + 1),
                                      config)
+
+
+def test_supplementary_tables_are_transcribed_in_their_columns():
+    for table, columns in ((paper_numbers.TABLE2, paper_numbers.TABLE1_COLUMNS),
+                           (paper_numbers.TABLE3, paper_numbers.SUPPLEMENT_COLUMNS),
+                           (paper_numbers.TABLE4, paper_numbers.SUPPLEMENT_COLUMNS),
+                           (paper_numbers.TABLE5, paper_numbers.TABLE5_COLUMNS),
+                           (paper_numbers.TABLE6, paper_numbers.SUPPLEMENT_COLUMNS),
+                           (paper_numbers.TABLE7, paper_numbers.SUPPLEMENT_COLUMNS),
+                           (paper_numbers.TABLE8, paper_numbers.SUPPLEMENT_COLUMNS)):
+        assert set(table) == {"sit", "lift"}
+        for rows in table.values():
+            for row in rows.values():
+                assert tuple(row) == columns
+                assert 0 <= row["% D2O ≤ 2cm ↑"] <= 100 and 0 <= row["Contact IoU ↑"] <= 1
+    assert set(paper_numbers.TABLE5_COLUMNS) == set(paper_numbers.SUPPLEMENT_COLUMNS)
+    # NIFTY's own sitting row is the same in Tables 3, 4, 6 and 7 (the supplement's 10 samples, 1 frame, canonical).
+    nifty_sit = paper_numbers.TABLE4["sit"]["10"]
+    for row in (paper_numbers.TABLE3["sit"]["Parametric"], paper_numbers.TABLE6["sit"]["1"],
+                paper_numbers.TABLE7["sit"]["Canonical"]):
+        assert dict(row) == dict(nifty_sit)
+
+
+def test_guided_by_the_nearest_anchor_needs_no_field(sit_case, tmp_cache):
+    dataset, model_config = _tiny_dataset_and_model(sit_case)
+    config = evaluation.EvaluationConfig(n_scenes=3, n_training=2, n_approach_sequences=2, n_object_points=200)
+    result = evaluation.evaluate_guided(dataset, model_config, None, config, n_samples=2, alpha=0.5, n_scenes=1,
+                                        objective="nearest_anchor")
+    assert len(result.samples.motions) == 1 and result.all_objectives.shape == (1, 2)
+    np.testing.assert_allclose(result.objective, result.all_objectives.min(axis=1))
+    assert not list(tmp_cache.glob("nifty_sit_interaction_field-*.pt"))  # no field was trained
+    with pytest.raises(ValueError, match="field_config"):
+        evaluation.evaluate_guided(dataset, model_config, None, config, n_scenes=1)
+    with pytest.raises(ValueError, match="objective"):
+        evaluation.evaluate_guided(dataset, model_config, None, config, n_scenes=1, objective="random")

@@ -205,3 +205,22 @@ def test_config_presets():
     assert interaction_field_config("sit") == field_module.InteractionFieldConfig()
     assert interaction_field_config("lift", "paper").lr == 5e-5  # NIFTY §4.1
     assert interaction_field_config("lift", "paper").steps == 300_000
+
+
+def test_field_anchor_subset_takes_a_share_of_the_training_anchors(sit_tensors):
+    from hoi_tutorial.nifty.data import SyntheticDataset, synthetic_data_config
+
+    records, _ = sit_tensors
+    anchors = [r.anchor for r in records] + [records[0].anchor.__class__(**vars(records[0].anchor))]  # one unused
+    dataset = SyntheticDataset(config=synthetic_data_config("sit"), anchors=anchors, sequences=records, leaves=[],
+                               all_paths=[], tree_stats=[], stats={})
+    assert dataset.training_anchor_index == [0, 1, 2]  # the copy grew no sequence
+    assert field_module.field_anchor_subset(dataset, _tiny_field_config()) == [0, 1, 2]
+    half = field_module.field_anchor_subset(dataset, _tiny_field_config(anchor_fraction=0.5))
+    assert len(half) == 2 and set(half) <= {0, 1, 2}  # ceil(0.5 x 3)
+    assert len(field_module.field_anchor_subset(dataset, _tiny_field_config(anchor_fraction=0.01))) == 1
+    assert half == field_module.field_anchor_subset(dataset, _tiny_field_config(anchor_fraction=0.5))
+    with pytest.raises(ValueError, match="anchor_fraction"):
+        _tiny_field_config(anchor_fraction=0.0)
+    with pytest.raises(ValueError, match="anchor_fraction"):
+        _tiny_field_config(anchor_fraction=1.5)

@@ -65,6 +65,8 @@ __all__ = [
     "build_evaluation",
     "GuidedEvaluation",
     "evaluate_guided",
+    "GUIDANCE_OBJECTIVES",
+    "GUIDED_SCENE_BLOCK",
     "build_guided_evaluation",
     "evaluate_cond_vae",
     "build_table1",
@@ -82,6 +84,8 @@ APPROACH_QUANTILE = {"sit": 0.5, "lift": 0.15}
 
 # Guided samples are drawn and cached in blocks of this many test scenes (see evaluate_guided).
 GUIDED_SCENE_BLOCK = 8
+# What evaluate_guided can guide with: NIFTY's learned field, or Appendix D.1's nearest anchor pose.
+GUIDANCE_OBJECTIVES = ("field", "nearest_anchor")
 
 
 
@@ -648,9 +652,13 @@ class GuidedEvaluation:
 
 def evaluate_guided(dataset, model_config, field_config, config: Optional[EvaluationConfig] = None, *,
                     n_samples: int = 10, alpha: Optional[float] = None, n_scenes: Optional[int] = None,
-                    device="cpu") -> GuidedEvaluation:
+                    objective: str = "field", device="cpu") -> GuidedEvaluation:
     """NIFTY on the test scenes: guided by the interaction field, best of ``n_samples`` (§4.1), scored
     with :func:`evaluate_motions`, once (then from the cache).
+
+    With ``objective="nearest_anchor"`` the guidance is Appendix D.1's non-parametric field instead
+    (the offset to the nearest training anchor pose, ``guidance.nearest_anchor_objective``; Table 3)
+    and ``field_config`` is not used (pass ``None``).
 
     The scenes, ``N_A`` and the point sampling are those of :func:`evaluate_motion_model` for the same
     ``config``, so the rows compare scene by scene with its Cond. MDM samples.
@@ -663,10 +671,14 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
         n_samples: candidates per scene, N (NIFTY: 10).
         alpha: guidance step size (default ``guidance.GUIDANCE_ALPHA["field"]``).
         n_scenes: the first this many test scenes (default all).
+        objective: ``"field"`` (NIFTY) or ``"nearest_anchor"`` (Table 3's non-parametric field).
         device: where to train (if needed) and sample.
     Returns:
         a :class:`GuidedEvaluation`.
     """
+    check_choice(objective, GUIDANCE_OBJECTIVES, "objective")
+    if objective == "field" and field_config is None:
+        raise ValueError("field_config: expected an InteractionFieldConfig for objective='field', got None")
     config = config or EvaluationConfig()
     alpha = guidance.GUIDANCE_ALPHA["field"] if alpha is None else float(alpha)
     unguided = evaluate_motion_model(dataset, model_config, config, device=device)
@@ -677,14 +689,19 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
     def build(start, stop):
         block = scenes[start:stop]
         model = motion_model.trained_motion_model(dataset, model_config, device=device).model
-        field = interaction_field.trained_interaction_field(dataset, model_config, field_config, device=device).model
+        if objective == "field":
+            field = interaction_field.trained_interaction_field(dataset, model_config, field_config,
+                                                                device=device).model
+            objective_for = functools.partial(guidance.field_objective, field)
+        else:
+            objective_for = functools.partial(guidance.nearest_anchor_objective,
+                                              guidance.anchor_simplified_poses(dataset.training_anchors))
         conditions = [motion_model.interaction_condition(s.start, s.obj, model_config.n_points, seed=config.seed)
                       for s in block]
         cond = {name: torch.stack([c[name] for c in conditions]) for name in motion_model.CONDITION_KEYS}
         placement = torch.stack([c["world_from_canonical"] for c in conditions])
         generator = torch.Generator().manual_seed(int(np.random.SeedSequence([config.seed, start]).generate_state(1)[0]))
-        out = guidance.guided_samples(model, cond, functools.partial(guidance.field_objective, field),
-                                      n_samples=n_samples, alpha=alpha, generator=generator,
+        out = guidance.guided_samples(model, cond, objective_for, n_samples=n_samples, alpha=alpha, generator=generator,
                                       guidance_scale=config.guidance_scale, device=device)
         motions = motion_model.states_to_motions(out.states, cond["betas"], placement)
         scores = evaluate_motions(motions, [s.obj for s in block], dataset.training_anchors, unguided.n_approach,
@@ -699,7 +716,8 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
     for start in range(0, len(scenes), GUIDED_SCENE_BLOCK):
         stop = min(start + GUIDED_SCENE_BLOCK, len(scenes))
         key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config),
-               "field": dataclasses.asdict(field_config), "evaluation": dataclasses.asdict(config),
+               "field": dataclasses.asdict(field_config) if objective == "field" else None,
+               "objective": objective, "evaluation": dataclasses.asdict(config),
                "n_samples": int(n_samples), "alpha": alpha, "scenes": [start, stop]}
         parts.append(load_or_build(f"nifty_{dataset.config.action}_guided_evaluation", key,
                                    functools.partial(build, start, stop), code=code))
@@ -718,12 +736,12 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
 
 def build_guided_evaluation(data_config, model_config, field_config, config: Optional[EvaluationConfig] = None, *,
                             n_samples: int = 10, alpha: Optional[float] = None, n_scenes: Optional[int] = None,
-                            device="cpu") -> None:
+                            objective: str = "field", device="cpu") -> None:
     """Every artifact :func:`evaluate_guided` needs for one action (data, motion model and its
     evaluation, interaction field, guided samples), built or loaded: for ``infra.warm_cache``."""
     dataset = data.synthesize(data_config, device=device, progress=False)
     evaluate_guided(dataset, model_config, field_config, config, n_samples=n_samples, alpha=alpha, n_scenes=n_scenes,
-                    device=device)
+                    objective=objective, device=device)
 
 
 # --------------------------------------------------------------------------- the Cond. VAE baseline

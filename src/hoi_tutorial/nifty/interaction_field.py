@@ -39,6 +39,7 @@ import sys
 from dataclasses import dataclass
 from typing import Optional
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -68,6 +69,7 @@ __all__ = [
     "InteractionField",
     "field_around",
     "train_interaction_field",
+    "field_anchor_subset",
     "trained_interaction_field",
 ]
 
@@ -90,6 +92,9 @@ class InteractionFieldConfig:
         output: ``"offset"`` (NIFTY: ``ΔX̃``, 23 × 3 numbers per pose) or ``"distance"`` (Table 2's
             ablation: one number per pose, the norm of the offset).
         n_frames: the last poses the field reads (NIFTY: 1; Table 6: 5, 10, 15).
+        anchor_fraction: share of the training anchors whose sequences make the field's training
+            pairs (NIFTY: all; Table 5: 10, 25, 50 %), a random subset drawn with ``seed``, at least
+            one anchor (:func:`field_anchor_subset`).
         width, layers, heads, dropout: the transformer encoder (NIFTY: 512, 8, 4; dropout ours).
         pointnet_hidden: the PointNet's shared layer widths.
         copies_per_sequence: noised copies of each training motion fed through the diffusion model.
@@ -108,6 +113,7 @@ class InteractionFieldConfig:
     frame: str = "object"
     output: str = "offset"
     n_frames: int = 1
+    anchor_fraction: float = 1.0
     width: int = 64
     layers: int = 2
     heads: int = 4
@@ -130,6 +136,8 @@ class InteractionFieldConfig:
         check_choice(self.action, ("sit", "lift"), "action")
         check_choice(self.frame, FIELD_FRAMES, "frame")
         check_choice(self.output, FIELD_OUTPUTS, "output")
+        if not 0.0 < float(self.anchor_fraction) <= 1.0:
+            raise ValueError(f"anchor_fraction: expected a share in (0, 1], got {self.anchor_fraction!r}")
         check_positive_ints(self, ("n_frames", "width", "layers", "heads", "copies_per_sequence", "steps",
                                    "batch_size"))
         if self.width % self.heads:
@@ -443,6 +451,22 @@ _FIELD_CODE = ("..nn.pointnet",)
 
 
 @single_threaded
+def field_anchor_subset(dataset, config: InteractionFieldConfig) -> list[int]:
+    """Indices into ``dataset.anchors`` of the training anchors whose sequences train the field.
+
+    All of ``dataset.training_anchor_index`` for ``anchor_fraction = 1`` (NIFTY); otherwise a random
+    ``ceil(anchor_fraction × n)`` of them (at least one), drawn with ``config.seed``, ascending.
+    """
+    index = list(dataset.training_anchor_index)
+    if not index:
+        raise ValueError("dataset: expected at least one training sequence")
+    if config.anchor_fraction >= 1.0:
+        return index
+    n = max(1, math.ceil(config.anchor_fraction * len(index)))
+    rng = np.random.default_rng([int(config.seed), 5])
+    return sorted(int(i) for i in rng.choice(index, size=n, replace=False))
+
+
 def trained_interaction_field(dataset, model_config, config: InteractionFieldConfig, device="cpu",
                               progress: bool = False) -> TrainedModel:
     """The interaction field for a synthetic dataset and its motion model, built once, then loaded.
@@ -466,7 +490,9 @@ def trained_interaction_field(dataset, model_config, config: InteractionFieldCon
 
     def build():
         trained = motion_model.trained_motion_model(dataset, model_config, device=device, progress=progress)
-        tensors = InteractionTensors.from_sequences(dataset.sequences, model_config.max_frames,
+        used = {id(dataset.anchors[i]) for i in field_anchor_subset(dataset, config)}
+        sequences = [s for s in dataset.sequences if id(s.anchor) in used]
+        tensors = InteractionTensors.from_sequences(sequences, model_config.max_frames,
                                                     model_config.n_points, model_config.seed)
         pairs = field_training_pairs(trained.model, tensors, config, device=device)
         field, result = train_interaction_field(pairs, config, device=device, progress=progress)
