@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from hoi_tutorial.nifty import evaluation, paper_numbers
+from hoi_tutorial.nifty import evaluation, scoring, paper_numbers
 from hoi_tutorial.nifty.anchors import Anchor
 from hoi_tutorial.nifty.data import SyntheticDataset, synthetic_data_config
 from hoi_tutorial.nifty.motion_model import final_pelvis_distance, motion_model_config
@@ -45,7 +45,7 @@ def sit_case():
 
 def test_scenes_cycle_anchors_and_respect_the_distance_range(sit_case):
     _, anchors = sit_case
-    scenes = evaluation.test_scenes(anchors, 5, (1.0, 1.5), seed=3)
+    scenes = scoring.test_scenes(anchors, 5, (1.0, 1.5), seed=3)
     assert [s.anchor for s in scenes] == [0, 1, 0, 1, 0]
     for scene in scenes:
         # A held-out instance: the anchor's category and placement, sizes of its own.
@@ -66,15 +66,15 @@ def test_scenes_cycle_anchors_and_respect_the_distance_range(sit_case):
 
 def test_scenes_can_use_the_anchors_own_objects(sit_case):
     _, anchors = sit_case
-    scenes = evaluation.test_scenes(anchors, 3, (1.0, 1.5), seed=3, held_out=False)
+    scenes = scoring.test_scenes(anchors, 3, (1.0, 1.5), seed=3, held_out=False)
     assert all(scene.obj is anchors[scene.anchor].obj for scene in scenes)
 
 
 def test_scenes_are_deterministic_for_a_seed(sit_case):
     _, anchors = sit_case
-    a = evaluation.test_scenes(anchors, 3, (1.0, 2.0), seed=7)
-    b = evaluation.test_scenes(anchors, 3, (1.0, 2.0), seed=7)
-    c = evaluation.test_scenes(anchors, 3, (1.0, 2.0), seed=8)
+    a = scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=7)
+    b = scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=7)
+    c = scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=8)
     for x, y in zip(a, b):
         torch.testing.assert_close(x.start.joints, y.start.joints, rtol=0, atol=0)
     assert not torch.equal(a[0].start.joints, c[0].start.joints)
@@ -83,13 +83,13 @@ def test_scenes_are_deterministic_for_a_seed(sit_case):
 def test_scenes_reject_bad_input(sit_case):
     _, anchors = sit_case
     with pytest.raises(ValueError, match="distance_range"):
-        evaluation.test_scenes(anchors, 2, (1.5, 1.0))
+        scoring.test_scenes(anchors, 2, (1.5, 1.0))
     with pytest.raises(ValueError, match="n_scenes"):
-        evaluation.test_scenes(anchors, 0, (1.0, 1.5))
+        scoring.test_scenes(anchors, 0, (1.0, 1.5))
     with pytest.raises(ValueError, match="anchors"):
-        evaluation.test_scenes([], 2, (1.0, 1.5))
+        scoring.test_scenes([], 2, (1.0, 1.5))
     with pytest.raises(ValueError, match="kinds"):
-        evaluation.test_scenes(anchors, 2, (1.0, 1.5), kinds=("dance",))
+        scoring.test_scenes(anchors, 2, (1.0, 1.5), kinds=("dance",))
 
 
 # --------------------------------------------------------------------------- per-motion metrics
@@ -97,7 +97,7 @@ def test_scenes_reject_bad_input(sit_case):
 
 def test_a_motion_ending_in_its_anchor_scores_like_the_data(sit_case):
     records, anchors = sit_case
-    scores = evaluation.evaluate_motions([r.motion for r in records], [r.obj for r in records], anchors,
+    scores = scoring.evaluate_motions([r.motion for r in records], [r.obj for r in records], anchors,
                                          n_approach=30, n_object_points=500)
     np.testing.assert_allclose(scores.skeleton_distance, 0.0, atol=1e-9)
     assert scores.nearest_anchor.tolist() == [0, 1]
@@ -112,7 +112,7 @@ def test_a_pose_shifted_one_metre_is_22_metres_of_skeleton_distance(sit_case):
     records, anchors = sit_case
     record = records[0]
     away = record.motion.transformed(0.0, torch.tensor([1.0, 0.0, 0.0], dtype=record.motion.root_position.dtype))
-    scores = evaluation.evaluate_motions([away], [record.obj], anchors[:1], n_approach=30, n_object_points=500)
+    scores = scoring.evaluate_motions([away], [record.obj], anchors[:1], n_approach=30, n_object_points=500)
     # Every joint is exactly 1 m from the anchor's: the sum over the 22 joints is 22 m.
     assert scores.skeleton_distance[0] == pytest.approx(NUM_JOINTS * 1.0, abs=1e-4)
     assert scores.d2o[0] > 0.3
@@ -122,26 +122,26 @@ def test_a_pose_shifted_one_metre_is_22_metres_of_skeleton_distance(sit_case):
 def test_evaluate_motions_rejects_bad_input(sit_case):
     records, anchors = sit_case
     with pytest.raises(ValueError, match="motions, objects"):
-        evaluation.evaluate_motions([records[0].motion], [], anchors, n_approach=10)
+        scoring.evaluate_motions([records[0].motion], [], anchors, n_approach=10)
     with pytest.raises(ValueError, match="n_approach"):
-        evaluation.evaluate_motions([records[0].motion], [records[0].obj], anchors, n_approach=0)
+        scoring.evaluate_motions([records[0].motion], [records[0].obj], anchors, n_approach=0)
     with pytest.raises(ValueError, match="anchors"):
-        evaluation.evaluate_motions([records[0].motion], [records[0].obj], [], n_approach=10)
+        scoring.evaluate_motions([records[0].motion], [records[0].obj], [], n_approach=10)
 
 
 def test_approach_length_of_motions_that_never_touch_is_the_whole_motion(sit_case):
     records, _ = sit_case
     far = [r.motion.slice(0, 20).transformed(0.0, torch.tensor([5.0, 5.0, 0.0], dtype=torch.float64))
            for r in records]
-    assert evaluation.approach_length(far, [r.obj for r in records], "sit", max_frames=30,
+    assert scoring.approach_length(far, [r.obj for r in records], "sit", max_frames=30,
                                       n_object_points=300) == 30
     with pytest.raises(ValueError, match="action"):
-        evaluation.approach_length(far, [r.obj for r in records], "dance")
+        scoring.approach_length(far, [r.obj for r in records], "dance")
 
 
 def test_approach_length_of_sitting_ends_before_the_seat_is_reached(sit_case):
     records, _ = sit_case
-    n = evaluation.approach_length([r.motion for r in records], [r.obj for r in records], "sit",
+    n = scoring.approach_length([r.motion for r in records], [r.obj for r in records], "sit",
                                    n_object_points=500)
     assert 0 < n < FRAMES  # the penetration only grows once the person sits down
 
@@ -151,15 +151,15 @@ def test_approach_length_of_sitting_ends_before_the_seat_is_reached(sit_case):
 
 def test_table_row_known_answer():
     unused = np.zeros(4)
-    results = evaluation.MotionScores(
+    results = scoring.MotionScores(
         foot_skating=np.array([0.1, 0.3, 0.2, 0.4]),
         d2o=np.array([0.0, 0.01, 0.5, 1.0]),
         penetration=np.array([0.01, 0.03, np.nan, np.nan]),
         skeleton_distance=np.array([1.0, 2.0, 3.0, 6.0]),
         nearest_anchor=unused.astype(int), contact_iou=np.array([1.0, 0.5, 0.0, 0.0]),
         start_distance=unused, final_distance=unused)
-    row = evaluation.table_row(results)
-    assert list(row) == list(evaluation.TABLE1_COLUMNS)
+    row = scoring.table_row(results)
+    assert list(row) == list(scoring.TABLE1_COLUMNS)
     assert row["Foot Skating ↓"] == pytest.approx(0.25)
     assert row["% D2O ≤ 2cm ↑"] == pytest.approx(50.0)
     assert row["D2O 95th % ↓"] == pytest.approx(np.percentile(results.d2o, 95))
@@ -167,16 +167,16 @@ def test_table_row_known_answer():
     assert row["Contact IoU ↑"] == pytest.approx(0.375)
     assert row["% Pen. ≤ 2cm ↑"] == pytest.approx(50.0)  # of the two that reach, one penetrates ≤ 2 cm
     with pytest.raises(TypeError, match="MotionScores"):
-        evaluation.table_row({"d2o": results.d2o})
-    supplement = evaluation.table_row(results, columns=paper_numbers.SUPPLEMENT_COLUMNS)
+        scoring.table_row({"d2o": results.d2o})
+    supplement = scoring.table_row(results, columns=paper_numbers.SUPPLEMENT_COLUMNS)
     assert list(supplement) == list(paper_numbers.SUPPLEMENT_COLUMNS)
     assert supplement["% Skel. Dist. ≤ 25cm ↑"] == pytest.approx(0.0)  # every summed distance is ≥ 1 m here
     near = dataclasses.replace(results, skeleton_distance=np.array([0.1, 0.25, 0.3, 6.0]))
-    assert evaluation.table_row(near, columns=("% Skel. Dist. ≤ 25cm ↑",))["% Skel. Dist. ≤ 25cm ↑"] == 50.0
-    assert evaluation.table_counts(near) == {"D2O ≤ 2cm": "2 / 4", "Skel. Dist. ≤ 25cm": "2 / 4",
+    assert scoring.table_row(near, columns=("% Skel. Dist. ≤ 25cm ↑",))["% Skel. Dist. ≤ 25cm ↑"] == 50.0
+    assert scoring.table_counts(near) == {"D2O ≤ 2cm": "2 / 4", "Skel. Dist. ≤ 25cm": "2 / 4",
                                              "Pen. ≤ 2cm": "1 / 2"}
     with pytest.raises(ValueError, match="columns"):
-        evaluation.table_row(results, columns=("Speed ↑",))
+        scoring.table_row(results, columns=("Speed ↑",))
 
 
 # --------------------------------------------------------------------------- a model, end to end
@@ -222,7 +222,7 @@ def test_penetration_depths_match_the_full_body_sdf(sit_case):
     records, _ = sit_case
     for record in records:
         points = torch.as_tensor(np.asarray(record.obj.surface_points(2000, seed=0)))
-        fast = evaluation._penetration_per_frame(record.motion, points)
+        fast = scoring._penetration_per_frame(record.motion, points)
         full = body.body_sdf(points.float(), record.motion.global_rotations.float(), record.motion.joints.float(),
                              record.motion.betas.float()).numpy()
         assert fast.shape == full.shape
@@ -234,11 +234,11 @@ def test_penetration_depths_match_the_full_body_sdf(sit_case):
 
 def test_paper_numbers_fill_table1_for_every_method_and_action():
 
-    assert evaluation.TABLE1_COLUMNS is paper_numbers.TABLE1_COLUMNS
+    assert scoring.TABLE1_COLUMNS is paper_numbers.TABLE1_COLUMNS
     for action in ("sit", "lift"):
         assert tuple(paper_numbers.TABLE1[action]) == paper_numbers.TABLE1_METHODS
         for row in paper_numbers.TABLE1[action].values():
-            assert tuple(row) == evaluation.TABLE1_COLUMNS
+            assert tuple(row) == scoring.TABLE1_COLUMNS
             assert 0 <= row["% D2O ≤ 2cm ↑"] <= 100 and 0 <= row["Contact IoU ↑"] <= 1
     with pytest.raises(TypeError):
         paper_numbers.TABLE1["sit"]["NIFTY"]["Foot Skating ↓"] = 0.0  # read-only
@@ -272,24 +272,24 @@ def test_penetration_by_approach_length_agrees_with_the_per_motion_score(sit_cas
     motions, objects = [r.motion for r in records], [r.obj for r in records]
     values = [10, 30, 60, 10_000]  # the last is clamped to each motion's length
     for n_approach in (10, 30, 60):
-        scores = evaluation.evaluate_motions(motions, objects, anchors, n_approach=n_approach, n_object_points=500)
-        curve = evaluation.penetration_by_approach_length(motions, objects, scores.d2o, values, n_object_points=500,
+        scores = scoring.evaluate_motions(motions, objects, anchors, n_approach=n_approach, n_object_points=500)
+        curve = scoring.penetration_by_approach_length(motions, objects, scores.d2o, values, n_object_points=500,
                                                           threshold=0.02)
         assert curve["n_scored"] == int((scores.d2o <= 0.02).sum()) == len(records)
         expected = 100.0 * np.mean(scores.penetration <= 0.02)
         assert curve["pct"][values.index(n_approach)] == pytest.approx(expected)
     # A threshold no score passes and one every score passes bound the curve.
-    assert (evaluation.penetration_by_approach_length(motions, objects, scores.d2o, values, n_object_points=500,
+    assert (scoring.penetration_by_approach_length(motions, objects, scores.d2o, values, n_object_points=500,
                                                       threshold=-1.0)["pct"] == 0).all()
-    assert (evaluation.penetration_by_approach_length(motions, objects, scores.d2o, values, n_object_points=500,
+    assert (scoring.penetration_by_approach_length(motions, objects, scores.d2o, values, n_object_points=500,
                                                       threshold=1e9)["pct"] == 100).all()
     # Nothing reaches the object: nothing is scored.
-    far = evaluation.penetration_by_approach_length(motions, objects, np.ones(len(motions)), values)
+    far = scoring.penetration_by_approach_length(motions, objects, np.ones(len(motions)), values)
     assert far["n_scored"] == 0 and np.isnan(far["pct"]).all()
     with pytest.raises(ValueError, match="n_approach_values"):
-        evaluation.penetration_by_approach_length(motions, objects, scores.d2o, [0, 10])
+        scoring.penetration_by_approach_length(motions, objects, scores.d2o, [0, 10])
     with pytest.raises(ValueError, match="d2o"):
-        evaluation.penetration_by_approach_length(motions, objects, scores.d2o[:1], values)
+        scoring.penetration_by_approach_length(motions, objects, scores.d2o[:1], values)
 
 
 def test_guided_blocks_are_cached_apart_and_reused(sit_case, tmp_cache, monkeypatch):
