@@ -6,6 +6,7 @@ It measures and never gates: the exit code is 0 even when a notebook is over bud
     python scripts/bench.py                          # every notebooks/*.ipynb
     python scripts/bench.py --notebooks 01_toy_world  # a subset, by stem, file name or path
     python scripts/bench.py --isolated               # a fresh cache for each notebook
+    python scripts/bench.py --keep bench_out         # also keep the executed notebooks (cold/, warm/)
 """
 import argparse
 import os
@@ -74,6 +75,7 @@ def main(argv=None):
     parser.add_argument("--notebooks", nargs="+", help="stems, file names or paths of the notebooks to time")
     parser.add_argument("--scale", default="toy", help="SCALE parameter passed to every notebook (budgets are for toy)")
     parser.add_argument("--seed", type=int, default=0, help="SEED parameter passed to every notebook")
+    parser.add_argument("--keep", metavar="DIR", help="copy the executed notebooks to DIR/cold and DIR/warm")
     parser.add_argument("--isolated", action="store_true",
                         help="give each notebook its own empty cache instead of one shared by the run, as in a book build")
     args = parser.parse_args(argv)
@@ -106,6 +108,9 @@ def main(argv=None):
             for path in notebooks:
                 print(f"[{phase}] {path.name} ...", flush=True)
                 results[(phase, path)] = run_notebook(path, cache_of[path], out_dir, parameters)
+        if args.keep:
+            for phase in ("cold", "warm"):
+                shutil.copytree(work_dir / phase, Path(args.keep) / phase, dirs_exist_ok=True)
     finally:
         shutil.rmtree(work_dir, ignore_errors=True)
 
