@@ -107,9 +107,10 @@ def test_object_frame_field_is_invariant_to_moving_person_and_object_together(si
     states, cond = tensors.states[:2], tensors.condition(slice(0, 2))
     moved_states = states.clone()
     transform = _rigid(0.7, [0.4, -0.3, 0.0])
-    for name in ("joint_positions", "root_position"):
+    for name in ("joint_positions", "root_position", "joint_velocities", "root_velocity"):
         part = moved_states[..., NIFTY_STATE_LAYOUT[name]].reshape(2, FRAMES, -1, 3)
-        moved = part @ transform[:3, :3].T + transform[:3, 3]
+        moved = part @ transform[:3, :3].T + (transform[:3, 3] if name.endswith("positions") or name == "root_position"
+                                               else 0.0)  # velocities rotate, positions also move
         moved_states[..., NIFTY_STATE_LAYOUT[name]] = moved.reshape(2, FRAMES, -1)
     canonical_from_object = torch.eye(4).repeat(2, 1, 1)
     canonical_from_object[:, :3, :] = cond["object_pose"].reshape(2, 3, 4)
@@ -123,6 +124,30 @@ def test_object_frame_field_is_invariant_to_moving_person_and_object_together(si
         values[frame] = (g, g_moved)
     torch.testing.assert_close(values["object"][0], values["object"][1], atol=1e-4, rtol=1e-4)
     assert not torch.allclose(values["human"][0], values["human"][1], atol=1e-4, rtol=1e-4)
+
+
+def test_simplified_pose_places_the_pose_where_the_integrated_root_ends(sit_tensors):
+    from hoi_tutorial.world.features import nifty_state_to_pose
+
+    _, tensors = sit_tensors
+    states = tensors.states[:2]
+    # Data: the integrated root and t^p agree, so the simplified pose is j^p and t^p as they are.
+    pose = simplified_pose(states, 1)[:, 0]
+    torch.testing.assert_close(pose[:, -1], states[:, -1, NIFTY_STATE_LAYOUT["root_position"]], atol=1e-4, rtol=0)
+    # Velocities that walk 1 m further along +x than t^p says: the pose moves with the integrated root.
+    drifted = states.clone()
+    drifted[:, :-1, NIFTY_STATE_LAYOUT["root_velocity"].start] += 30.0 / (FRAMES - 1)  # 1 m over the clip at 30 fps
+    moved = simplified_pose(drifted, 1)[:, 0]
+    _, root = nifty_state_to_pose(drifted)
+    torch.testing.assert_close(moved[:, -1, :2], root[:, -1, :2].float(), atol=1e-4, rtol=0)
+    torch.testing.assert_close(moved - pose, torch.tensor([1.0, 0.0, 0.0]).expand_as(pose), atol=1e-4, rtol=0)
+    # Padding frames hold still: with every frame after the first marked as padding, only the first step counts.
+    valid = torch.zeros(2, FRAMES, dtype=torch.bool)
+    valid[:, 0] = True
+    still = simplified_pose(drifted, 1, valid)[:, 0]
+    first = drifted[:, 0, NIFTY_STATE_LAYOUT["root_position"]][:, :2]
+    step = drifted[:, 0, NIFTY_STATE_LAYOUT["root_velocity"]][:, :2] / 30.0
+    torch.testing.assert_close(still[:, -1, :2], first + step)
 
 
 def test_guidance_with_the_field_lowers_the_objective_on_a_fixed_noisy_input(sit_tensors):

@@ -16,7 +16,8 @@ The step size α is not given in the paper (guidance step sizes are tuned per ob
 Trace and Pace code NIFTY's Eq. 4 follows). ``GUIDANCE_ALPHA`` holds the toy value, chosen on
 training conditions, never on the test scenes: α ∈ {30, 100, 200}, one guided sample for each of
 16 training conditions per action (seed 0); 100 gave the lowest final objective and skeleton
-distance for both sitting and lifting, 200 overshoots.
+distance for both sitting and lifting, 200 overshoots. (That choice was made when the simplified pose
+was read from ``t^p`` alone, before it followed the integrated root; it has not been re-tuned since.)
 """
 from __future__ import annotations
 

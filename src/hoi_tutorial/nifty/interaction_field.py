@@ -49,6 +49,7 @@ from ..infra import (TrainedModel, TrainResult, load_or_build, scaled_config, si
 from ..nn.diffusion import classifier_free_x0, q_sample
 from ..nn.pointnet import PointNetEncoder
 from ..world.features import NIFTY_STATE_LAYOUT, NIFTY_STATE_SIZE
+from ..world.motion import FPS
 from ..world.skeleton import NUM_JOINTS
 from . import motion_model
 from .motion_model import InteractionTensors, NiftyMotionModel
@@ -166,22 +167,44 @@ def interaction_field_config(action: str, scale: str = "toy", **overrides) -> In
 # --------------------------------------------------------------------------- poses and frames
 
 
-def simplified_pose(states: torch.Tensor, n_frames: int = 1) -> torch.Tensor:
-    """``X̃ = {j^p, t^p}`` of the last ``n_frames`` frames of NIFTY states (differentiable).
+def simplified_pose(states: torch.Tensor, n_frames: int = 1, valid: Optional[torch.Tensor] = None,
+                    fps: float = FPS) -> torch.Tensor:
+    """``X̃ = {j^p, t^p}`` of the last ``n_frames`` frames of NIFTY states (differentiable), placed where
+    the motion recovered from the states is.
+
+    NIFTY recovers a motion's root by integrating ``t^v`` in the ground plane (Appendix B) "so that the
+    guidance objective at the last frame will still have a strong effect on earlier frames". The
+    simplified pose is read the same way: the root's ground-plane position is the first frame's ``t^p``
+    plus the integral of ``t^v`` (as ``world.features.nifty_state_to_pose`` integrates it), its height is
+    ``t^p``'s, and the joints ``j^p`` move with the root. For data the two readings agree exactly; for
+    a generated motion whose ``t^p`` and integrated ``t^v`` disagree, the field then scores the motion
+    that is output, and its gradient reaches the velocities of every earlier frame.
 
     Args:
         states: ``(B, T, 336)`` un-normalised NIFTY Eq. 1 states (each in its canonical frame).
         n_frames: how many of the last frames.
+        valid: optional ``(B, T)`` bool, False on padding frames (a sequence shorter than ``T`` padded
+            with its last frame): their velocities are not integrated, so the padding holds still.
+        fps: frames per second of the states.
     Returns:
         ``(B, n_frames, 23, 3)`` metres: the 22 joint positions, then the root translation.
     """
     check_shape(states, (None, None, NIFTY_STATE_SIZE), "states")
     if not isinstance(n_frames, int) or not 1 <= n_frames <= states.shape[1]:
         raise ValueError(f"n_frames: expected an int in [1, {states.shape[1]}], got {n_frames!r}")
+    velocity = states[..., NIFTY_STATE_LAYOUT["root_velocity"]][..., :2]
+    if valid is not None:
+        valid = as_tensor(valid, "valid", dtype=torch.bool).to(states.device)
+        check_shape(valid, states.shape[:2], "valid")
+        velocity = velocity * valid[..., None].to(velocity.dtype)
+    first = states[:, :1, NIFTY_STATE_LAYOUT["root_position"]][..., :2]
+    step = velocity[:, :-1] / fps
+    ground = first + torch.cat([torch.zeros_like(first), torch.cumsum(step, dim=1)], dim=1)  # (B, T, 2)
     last = states[:, -n_frames:]
     joints = last[..., NIFTY_STATE_LAYOUT["joint_positions"]].reshape(*last.shape[:2], NUM_JOINTS, 3)
     root = last[..., NIFTY_STATE_LAYOUT["root_position"]].reshape(*last.shape[:2], 1, 3)
-    return torch.cat([joints, root], dim=2)
+    shift = torch.cat([ground[:, -n_frames:] - root[:, :, 0, :2], torch.zeros_like(root[:, :, 0, :1])], dim=-1)
+    return torch.cat([joints, root], dim=2) + shift[:, :, None, :]
 
 
 def object_from_canonical(object_pose: torch.Tensor) -> torch.Tensor:
@@ -311,7 +334,8 @@ def field_training_pairs(model: NiftyMotionModel, tensors: InteractionTensors, c
     with torch.no_grad():
         encoded = model.encode_condition(cond)
     clean = model.normalise(tensors.states.to(device))
-    truth = simplified_pose(tensors.states.to(device), config.n_frames)
+    valid = tensors.valid.to(device)
+    truth = simplified_pose(tensors.states.to(device), config.n_frames, valid)
     n = len(tensors)
     poses, targets, sequence, steps = [], [], [], []
     for _ in range(config.copies_per_sequence):
@@ -320,7 +344,7 @@ def field_training_pairs(model: NiftyMotionModel, tensors: InteractionTensors, c
         with torch.no_grad():
             x0_hat = classifier_free_x0(model.denoise, q_sample(schedule, clean, k.to(device), noise.to(device)),
                                         k.to(device), encoded, model.config.guidance_scale)
-        poses.append(simplified_pose(model.denormalise(x0_hat), config.n_frames))
+        poses.append(simplified_pose(model.denormalise(x0_hat), config.n_frames, valid))
         targets.append(truth)
         sequence.append(torch.arange(n))
         steps.append(k)
