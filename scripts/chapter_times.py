@@ -8,6 +8,7 @@ line (Sphinx's location prefix) or by the last "reading sources... [..%] <docnam
 import re
 import sys
 
+ANSI = re.compile(r"\x1b\[[0-9;]*m")  # colour codes Sphinx may write even into a log file
 READING = re.compile(r"reading sources\.\.\. \[\s*\d+%\]\s+(\S+)")
 EXECUTED = re.compile(r"Executed notebook in ([0-9.]+) seconds")
 LOCATION = re.compile(r"(\S+?)(?:\.ipynb)?:\s*(?:\d+:\s*)?Executed notebook")
@@ -17,7 +18,7 @@ def chapter_times(lines):
     """``[(chapter, seconds)]`` in the order the log executed them."""
     times, current = [], None
     for line in lines:
-        for part in line.split("\r"):  # Sphinx's progress lines overwrite each other with carriage returns
+        for part in ANSI.sub("", line).split("\r"):  # Sphinx's progress lines overwrite each other with carriage returns
             match = READING.search(part)
             if match:
                 current = match.group(1)

@@ -10,7 +10,7 @@ spec.loader.exec_module(chapter_times)
 
 def test_times_are_read_with_the_chapter_from_either_source():
     log = [
-        "reading sources... [ 20%] notebooks/01_toy_world\n",
+        "\x1b[01mreading sources... \x1b[39;49;00m[ 20%] \x1b[35mnotebooks/01_toy_world\x1b[39;49;00m\n",
         "Executed notebook in 18.25 seconds [mystnb]\n",
         "reading sources... [ 40%] notebooks/02_diffusion\rreading sources... [ 60%] notebooks/03_data\n",
         "/repo/notebooks/03_data.ipynb: Executed notebook in 61.00 seconds [mystnb]\n",
