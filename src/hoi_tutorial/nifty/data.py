@@ -264,8 +264,13 @@ def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool 
         prune = prune_settings(config)
         generator = torch.Generator().manual_seed(config.seed)  # one stream across rounds
         trees, kept = [], 0
+        every_round = None  # generated once, when a second round is needed (round r does not depend on how many follow)
         for r in range(config.max_anchor_rounds):
-            new_anchors = round_anchors(r + 1)[r * per_round:]
+            if r == 0:
+                new_anchors = round_anchors(1)
+            else:
+                every_round = every_round or round_anchors(config.max_anchor_rounds)
+                new_anchors = every_round[r * per_round:(r + 1) * per_round]
             new_trees = grow_trees(prior, new_anchors, generator, config.tree, prune)
             trees += new_trees
             kept += sum(start_distance(path, tree.anchor.obj) >= config.tree.min_start_distance

@@ -123,6 +123,14 @@ def _subset(n_total: int, n: int, seed: int, salt: int) -> list[int]:
     return sorted(int(i) for i in rng.choice(n_total, size=min(int(n), n_total), replace=False))
 
 
+def _scene_conditions(scenes, n_points: int, seed: int) -> tuple[dict, torch.Tensor]:
+    """The raw condition of the test scenes, batched (``CONDITION_KEYS``), and their ``(S, 4, 4)``
+    ``world_from_canonical`` placements (``motion_model.interaction_condition`` per scene)."""
+    conditions = [motion_model.interaction_condition(s.start, s.obj, n_points, seed=seed) for s in scenes]
+    cond = {name: torch.stack([c[name] for c in conditions]) for name in motion_model.CONDITION_KEYS}
+    return cond, torch.stack([c["world_from_canonical"] for c in conditions])
+
+
 def _motions_payload(motions: Sequence[Motion]) -> dict:
     return {"local_rotations": torch.stack([m.local_rotations.float() for m in motions]),
             "root_position": torch.stack([m.root_position.float() for m in motions])}
@@ -175,14 +183,11 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
                                      max_frames=model_config.max_frames, n_object_points=config.n_object_points,
                                      seed=config.seed)
         # One sampling call for the scenes and the training conditions together.
-        conditions = [motion_model.interaction_condition(s.start, s.obj, model_config.n_points, seed=config.seed)
-                      for s in scenes]
+        scene_cond, scene_placement = _scene_conditions(scenes, model_config.n_points, config.seed)
         tensors = motion_model.InteractionTensors.from_sequences(training, model_config.max_frames,
                                                                  model_config.n_points, model_config.seed)
-        cond = {name: torch.cat([torch.stack([c[name] for c in conditions]), tensors.condition()[name]])
-                for name in motion_model.CONDITION_KEYS}
-        placement = torch.cat([torch.stack([c["world_from_canonical"] for c in conditions]),
-                               tensors.world_from_canonical])
+        cond = {name: torch.cat([scene_cond[name], tensors.condition()[name]]) for name in motion_model.CONDITION_KEYS}
+        placement = torch.cat([scene_placement, tensors.world_from_canonical])
         generator = torch.Generator().manual_seed(config.seed)
         states = motion_model.sample_motions(model, cond, generator=generator,
                                              guidance_scale=config.guidance_scale, device=device)
@@ -305,10 +310,7 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
         else:
             objective_for = functools.partial(guidance.nearest_anchor_objective,
                                               guidance.anchor_simplified_poses(dataset.training_anchors))
-        conditions = [motion_model.interaction_condition(s.start, s.obj, model_config.n_points, seed=config.seed)
-                      for s in block]
-        cond = {name: torch.stack([c[name] for c in conditions]) for name in motion_model.CONDITION_KEYS}
-        placement = torch.stack([c["world_from_canonical"] for c in conditions])
+        cond, placement = _scene_conditions(block, model_config.n_points, config.seed)
         generator = torch.Generator().manual_seed(int(np.random.SeedSequence([config.seed, start]).generate_state(1)[0]))
         out = guidance.guided_samples(model, cond, objective_for, n_samples=n_samples, alpha=alpha, generator=generator,
                                       guidance_scale=config.guidance_scale, device=device)
@@ -382,10 +384,7 @@ def evaluate_cond_vae(dataset, model_config, vae_config, config: Optional[Evalua
 
     def build():
         model = baselines.trained_cond_vae(dataset, vae_config, device=device).model
-        conditions = [motion_model.interaction_condition(s.start, s.obj, vae_config.n_points, seed=config.seed)
-                      for s in scenes]
-        cond = {name: torch.stack([c[name] for c in conditions]) for name in motion_model.CONDITION_KEYS}
-        placement = torch.stack([c["world_from_canonical"] for c in conditions])
+        cond, placement = _scene_conditions(scenes, vae_config.n_points, config.seed)
         states = baselines.sample_cond_vae(model, cond, generator=torch.Generator().manual_seed(config.seed))
         motions = motion_model.states_to_motions(states, cond["betas"], placement)
         scores = evaluate_motions(motions, [s.obj for s in scenes], dataset.training_anchors, unguided.n_approach,
