@@ -3,7 +3,9 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import os
 import random
+import time
 
 import numpy as np
 import pytest
@@ -585,6 +587,46 @@ def test_warm_cache_builds_missing_artifacts_in_parallel(isolated_cache):
     stamps = {p: p.stat().st_mtime_ns for p in isolated_cache.glob("*.pt")}
     warm_cache(calls, workers=2)
     assert {p: p.stat().st_mtime_ns for p in isolated_cache.glob("*.pt")} == stamps
+
+
+def _build_slow_pid(name):
+    # A build that takes a second and records which process made it.
+    def build():
+        time.sleep(1.0)
+        return torch.tensor(os.getpid())
+
+    return load_or_build(name, {}, build, verbose=False)
+
+
+def _build_failing(name):
+    def build():
+        raise RuntimeError(f"{name} cannot be built")
+
+    return load_or_build(name, {}, build, verbose=False)
+
+
+def test_warm_cache_shares_the_queue_between_processes(isolated_cache):
+    import functools
+
+    from hoi_tutorial.infra import warm_cache
+
+    # Four one-second builds on two cores: this process must take more than the first one (a
+    # worker needs seconds to start, so it cannot have taken the other three by then).
+    calls = [functools.partial(_build_slow_pid, f"slow{i}") for i in range(4)]
+    warm_cache(calls, workers=2)
+    pids = [int(_build_slow_pid(f"slow{i}")) for i in range(4)]
+    assert pids.count(os.getpid()) >= 2, pids
+    assert len(set(pids)) == 2, pids
+
+
+def test_warm_cache_reraises_a_failed_build(isolated_cache):
+    import functools
+
+    from hoi_tutorial.infra import warm_cache
+
+    calls = [functools.partial(_build_square, "fine", 2.0), functools.partial(_build_failing, "broken")]
+    with pytest.raises(RuntimeError, match="broken cannot be built"):
+        warm_cache(calls, workers=2)
 
 
 def test_warm_cache_rejects_what_it_cannot_run(isolated_cache):

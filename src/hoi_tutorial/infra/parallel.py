@@ -4,15 +4,18 @@ A chapter often needs the same pipeline for two actions (sitting and lifting), e
 one thread (see :func:`~hoi_tutorial.infra.device.one_thread`). On a two-core machine the second
 core is idle. :func:`warm_cache` runs such independent builds at the same time, the extra ones in
 worker processes: each worker stores its artifacts in the cache and exits, and the caller then
-loads them as usual. A fresh process per build keeps the builds independent of each other (no
-shared random state, no shared thread pool), so the artifacts are the ones a sequential run makes.
+loads them as usual. Workers are fresh interpreters (spawned, never forked from a process that
+already runs torch threads), and every build seeds itself from its configuration, so the artifacts
+are the ones a sequential run in one process makes.
 """
 from __future__ import annotations
 
+import collections
 import concurrent.futures
 import multiprocessing
 import os
 import pickle
+import threading
 from typing import Callable, Optional, Sequence
 
 from .cache import NotCachedError, cache_only
@@ -41,8 +44,8 @@ def warm_cache(calls: Sequence[Callable[[], object]], workers: Optional[int] = N
 
     Each call is first run here with :func:`~hoi_tutorial.infra.cache.cache_only`: if everything
     it needs is cached it just loads, and is done. The calls that would build something run in
-    parallel: the first here, the others in worker processes (a fresh interpreter each), at most
-    ``workers`` at a time.
+    parallel, at most ``workers`` at a time: this process and ``workers - 1`` worker processes (a
+    fresh interpreter each) take the next missing call from one queue whenever they are free.
 
     Args:
         calls: zero-argument callables that build (or load) cached artifacts, e.g.
@@ -78,16 +81,44 @@ def warm_cache(calls: Sequence[Callable[[], object]], workers: Optional[int] = N
         for call in missing:
             call()
         return
-    for call in missing[1:]:
+    for call in missing:
         try:
             pickle.dumps(call)
         except Exception as exc:  # noqa: BLE001 - any pickling failure means the same thing
             raise TypeError(f"calls: expected picklable callables (module-level functions or "
                             f"functools.partial of them), got {call!r}: {exc}") from exc
+    # A shared queue: this process and each worker slot take the next build as soon as they are
+    # free, so a long build on one core never leaves the other waiting with work still queued.
+    pending = collections.deque(missing)
+    lock = threading.Lock()
+    errors: list = []
+
+    def next_call():
+        with lock:
+            return pending.popleft() if pending and not errors else None
+
+    def feed(pool):
+        # One thread per worker slot: hand the worker the next build, wait for it, repeat.
+        while (call := next_call()) is not None:
+            try:
+                pool.submit(_run, call).result()
+            except BaseException as exc:  # noqa: BLE001 - re-raised in the caller below
+                with lock:
+                    errors.append(exc)
+
     # "spawn": a fresh interpreter, never a fork of a process that already runs torch threads.
     context = multiprocessing.get_context("spawn")
     with concurrent.futures.ProcessPoolExecutor(max_workers=workers - 1, mp_context=context) as pool:
-        futures = [pool.submit(_run, call) for call in missing[1:]]
-        missing[0]()
-        for future in futures:
-            future.result()
+        feeders = [threading.Thread(target=feed, args=(pool,), daemon=True) for _ in range(workers - 1)]
+        for thread in feeders:
+            thread.start()
+        try:
+            while (call := next_call()) is not None:
+                call()
+        except BaseException as exc:
+            with lock:
+                errors.insert(0, exc)
+        for thread in feeders:
+            thread.join()
+    if errors:
+        raise errors[0]
