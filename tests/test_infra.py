@@ -639,3 +639,24 @@ def test_warm_cache_rejects_what_it_cannot_run(isolated_cache):
     local = [lambda: _build_square("a", 1.0), lambda: _build_square("b", 2.0)]
     with pytest.raises(TypeError, match="picklable"):
         warm_cache(local, workers=2)
+
+
+def test_threads_allowed_lends_cores_to_one_thread_sections():
+    from hoi_tutorial.infra import one_thread, threads_allowed
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        with one_thread():
+            assert torch.get_num_threads() == 1
+        with threads_allowed(2):
+            with one_thread():
+                assert torch.get_num_threads() == 2
+        assert torch.get_num_threads() == 2
+        with one_thread():
+            assert torch.get_num_threads() == 1
+        with pytest.raises(ValueError, match="positive int"):
+            with threads_allowed(0):
+                pass
+    finally:
+        torch.set_num_threads(before)

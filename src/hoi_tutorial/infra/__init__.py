@@ -11,7 +11,7 @@ from .cache import (
     load_or_build,
     state_dict_to_cpu,
 )
-from .device import choose_device, one_thread, single_threaded
+from .device import choose_device, one_thread, single_threaded, threads_allowed
 from .parallel import available_cores, warm_cache
 from .presets import SCALES, by_scale, check_scale, scaled_config
 from .seeding import check_seed, rng, seed_everything
@@ -22,7 +22,7 @@ from .training import (TrainedModel, TrainerConfig, TrainResult, learning_rate_f
 __all__ = [
     "SCALES", "by_scale", "check_scale", "scaled_config",
     "check_seed", "rng", "seed_everything",
-    "choose_device", "one_thread", "single_threaded", "available_cores", "warm_cache",
+    "choose_device", "one_thread", "single_threaded", "threads_allowed", "available_cores", "warm_cache",
     "CorruptArtifactWarning", "NotCachedError", "cache_only", "artifact_key", "artifact_path", "cache_dir", "clear_cache",
     "load_or_build", "state_dict_to_cpu",
     "TrainerConfig", "TrainResult", "TrainedModel", "trainer_config", "learning_rate_factor", "move_to_device", "train",

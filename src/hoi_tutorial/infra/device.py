@@ -7,7 +7,10 @@ import re
 
 import torch
 
-__all__ = ["choose_device", "one_thread", "single_threaded"]
+__all__ = ["choose_device", "one_thread", "single_threaded", "threads_allowed"]
+
+# Set by threads_allowed: while > 1, one_thread leaves the pool as the caller set it.
+_ALLOWED_THREADS = 1
 
 _PATTERN = re.compile(r"^(auto|cpu|mps|cuda(:\d+)?)$")
 
@@ -65,6 +68,9 @@ def one_thread():
     two-thread pool makes them several times slower; one thread never does.
     """
     threads = torch.get_num_threads()
+    if _ALLOWED_THREADS > 1:  # inside threads_allowed: the caller owns the cores
+        yield
+        return
     if threads > 1:
         torch.set_num_threads(1)
     try:
@@ -72,6 +78,33 @@ def one_thread():
     finally:
         if threads > 1:
             torch.set_num_threads(threads)
+
+
+@contextlib.contextmanager
+def threads_allowed(n: int):
+    """Let the library's one-thread sections use ``n`` torch threads inside the block.
+
+    The library samples and rolls out on one thread because its builds often run two at a time,
+    one per core (:func:`~hoi_tutorial.infra.warm_cache`). A caller that has the machine to
+    itself, e.g. one interactive sampling call on two cores, can lend it every core::
+
+        with threads_allowed(2):
+            guidance.guided_samples(...)
+
+    Raises:
+        ValueError: unless ``n`` is a positive int.
+    """
+    global _ALLOWED_THREADS
+    if not isinstance(n, int) or isinstance(n, bool) or n < 1:
+        raise ValueError(f"n: expected a positive int (torch threads), got {n!r}")
+    allowed, threads = _ALLOWED_THREADS, torch.get_num_threads()
+    _ALLOWED_THREADS = n
+    torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        _ALLOWED_THREADS = allowed
+        torch.set_num_threads(threads)
 
 
 def single_threaded(function):

@@ -1,0 +1,383 @@
+"""Path planning for SAMP (§3.3 "Path Planning", Appendix E "Path Planning Formulation").
+
+SAMP computes an obstacle-free path from the character's start to the goal with A* and splits it
+into waypoints ``w_0, w_1, …`` "that define the locations where the path changes direction"; the
+character walks to each waypoint in turn and performs the action at the last one (§3.3).
+Appendix E runs A* on Unity's navigation mesh: the walkable area computed from the character's
+cylinder collider and the scene, stored as convex polygons; the path's corners are the waypoints.
+
+At toy scale the walkable area is the room's grid inflated by the body radius
+(``room.inflated_occupancy(radius)``: the cylinder collider seen from above is a disc):
+
+- :func:`astar`: A* on the grid, 8-connected without cutting blocked corners (octile heuristic) or
+  4-connected (Manhattan), optimal;
+- :func:`turning_points`: the cells where the grid path changes direction (§3.3's waypoints, literally);
+- :func:`line_of_sight` and :func:`shortcut_waypoints`: greedy string pulling, which removes the
+  staircase corners a grid path has and a navigation mesh's corner path does not (it stands in for
+  the funnel step of Unity's navmesh, Appendix E footnote: docs.unity3d.com/Manual/nav-InnerWorkings.html);
+- :func:`plan_path`: start and goal in metres → :class:`PlannedPath` (cells, points, waypoints);
+- :func:`draw_path`: the room from above with the path and its waypoints.
+
+Grid convention (``hoi_tutorial.world.scenes``): cell ``(i, j)`` is row ``i`` along +y, column ``j``
+along +x. This module imports only numpy (matplotlib inside :func:`draw_path`).
+"""
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+__all__ = [
+    "astar",
+    "path_cost",
+    "turning_points",
+    "line_of_sight",
+    "shortcut_waypoints",
+    "PlannedPath",
+    "plan_path",
+    "draw_path",
+]
+
+SQRT2 = math.sqrt(2.0)
+
+
+# ----------------------------------------------------------------------------- checks
+
+
+def _check_blocked(blocked) -> np.ndarray:
+    if not isinstance(blocked, np.ndarray) or blocked.ndim != 2 or blocked.dtype != np.bool_:
+        got = (f"shape {tuple(blocked.shape)}, dtype {blocked.dtype}" if isinstance(blocked, np.ndarray)
+               else type(blocked).__name__)
+        raise ValueError(f"blocked: expected an (H, W) bool numpy array, got {got}")
+    return blocked
+
+
+def _check_cell(cell, shape, name: str) -> tuple:
+    arr = np.asarray(cell)
+    if arr.shape != (2,) or not (np.issubdtype(arr.dtype, np.integer)
+                                 or (np.issubdtype(arr.dtype, np.floating) and np.all(arr == np.round(arr)))):
+        raise ValueError(f"{name}: expected a cell (i, j) of two ints, got {cell!r}")
+    i, j = int(arr[0]), int(arr[1])
+    if not (0 <= i < shape[0] and 0 <= j < shape[1]):
+        raise ValueError(f"{name}: cell ({i}, {j}) is outside the grid of shape {tuple(shape)}")
+    return i, j
+
+
+# ----------------------------------------------------------------------------- A*
+
+
+def astar(blocked: np.ndarray, start, goal, *, diagonal: bool = True) -> list:
+    """Shortest obstacle-free path on a grid with A* (SAMP §3.3; Hart, Nilsson and Raphael 1968).
+
+    8-connected when ``diagonal``: a step costs 1 along an axis and √2 diagonally, and a diagonal
+    step is allowed only when both cells beside it are free, so the path never cuts a blocked
+    corner; the heuristic is the octile distance. 4-connected otherwise, Manhattan heuristic. Both
+    heuristics are admissible and consistent, so the path is optimal and a cell is expanded at
+    most once. Ties on ``f = g + h`` go to the smaller ``h`` (nearer the goal), then the smaller
+    flat index: the result is deterministic.
+
+    Args:
+        blocked: (H, W) bool, True where the body cannot stand.
+        start, goal: cells ``(i, j)``, ints.
+        diagonal: 8-connected (True) or 4-connected (False).
+    Returns:
+        The cells ``[(i, j), …]`` from ``start`` to ``goal`` inclusive (Python ints).
+    Raises:
+        ValueError: bad ``blocked``; start or goal outside the grid or blocked; goal unreachable.
+    """
+    blocked = _check_blocked(blocked)
+    H, W = blocked.shape
+    si, sj = _check_cell(start, (H, W), "start")
+    gi, gj = _check_cell(goal, (H, W), "goal")
+    if blocked[si, sj]:
+        raise ValueError(f"start ({si}, {sj}) lies inside an obstacle (blocked cell)")
+    if blocked[gi, gj]:
+        raise ValueError(f"goal ({gi}, {gj}) lies inside an obstacle (blocked cell)")
+
+    # Flat indices into the grid padded by one blocked cell on each side: no bounds checks.
+    Wp = W + 2
+    padded = np.ones((H + 2, Wp), dtype=np.uint8)
+    padded[1:-1, 1:-1] = blocked
+    wall = bytearray(padded.tobytes())
+    rows, cols = np.divmod(np.arange(padded.size), Wp)
+    dx, dy = np.abs(cols - (gj + 1)), np.abs(rows - (gi + 1))
+    if diagonal:
+        h = (np.maximum(dx, dy) + (SQRT2 - 1.0) * np.minimum(dx, dy)).tolist()
+    else:
+        h = (dx + dy).astype(np.float64).tolist()
+    # (offset, cost, side cell 1, side cell 2); side offsets 0 for axis moves (never checked)
+    moves = [(1, 1.0, 0, 0), (-1, 1.0, 0, 0), (Wp, 1.0, 0, 0), (-Wp, 1.0, 0, 0)]
+    if diagonal:
+        moves += [(di * Wp + dj, SQRT2, di * Wp, dj) for di in (1, -1) for dj in (1, -1)]
+
+    n = len(wall)
+    g = [math.inf] * n
+    parent = [-1] * n
+    closed = bytearray(n)
+    s, t = (si + 1) * Wp + sj + 1, (gi + 1) * Wp + gj + 1
+    g[s] = 0.0
+    heap = [(h[s], h[s], s)]
+    pop, push = heapq.heappop, heapq.heappush
+    while heap:
+        _, _, u = pop(heap)
+        if closed[u]:
+            continue
+        if u == t:
+            break
+        closed[u] = 1
+        gu = g[u]
+        for off, cost, side1, side2 in moves:
+            v = u + off
+            if wall[v] or closed[v]:
+                continue
+            if side1 and (wall[u + side1] or wall[u + side2]):
+                continue
+            nv = gu + cost
+            if nv < g[v]:
+                g[v] = nv
+                parent[v] = u
+                hv = h[v]
+                push(heap, (nv + hv, hv, v))
+    else:
+        raise ValueError(f"goal ({gi}, {gj}) is unreachable from start ({si}, {sj}) "
+                         f"({'8' if diagonal else '4'}-connected free cells)")
+    path = []
+    u = t
+    while u != -1:
+        r, c = divmod(u, Wp)
+        path.append((r - 1, c - 1))
+        u = parent[u]
+    return path[::-1]
+
+
+def path_cost(cells) -> float:
+    """Length of a cell path in cells: the sum of its step lengths (1 along an axis, √2 diagonally).
+
+    Args:
+        cells: (N, 2) cells ``(i, j)``, N ≥ 1.
+    """
+    arr = np.asarray(cells, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 2 or len(arr) == 0:
+        raise ValueError(f"cells: expected shape (N, 2) with N >= 1, got {arr.shape}")
+    return float(np.linalg.norm(np.diff(arr, axis=0), axis=1).sum())
+
+
+def turning_points(cells) -> list:
+    """The waypoints of SAMP §3.3, "the locations where the path changes direction".
+
+    Args:
+        cells: (N, 2) cells of a path (e.g. from :func:`astar`).
+    Returns:
+        ``[(i, j), …]``: the start, every cell where the step direction changes, and the end
+        (just the start when N = 1).
+    """
+    arr = np.asarray(cells, dtype=np.int64)
+    if arr.ndim != 2 or arr.shape[1] != 2 or len(arr) == 0:
+        raise ValueError(f"cells: expected shape (N, 2) with N >= 1, got {arr.shape}")
+    if len(arr) == 1:
+        return [tuple(int(v) for v in arr[0])]
+    steps = np.diff(arr, axis=0)
+    turns = np.flatnonzero(np.any(steps[1:] != steps[:-1], axis=1)) + 1
+    keep = np.concatenate([[0], turns, [len(arr) - 1]])
+    return [tuple(int(v) for v in arr[k]) for k in keep]
+
+
+# ----------------------------------------------------------------------------- string pulling
+
+
+def line_of_sight(blocked: np.ndarray, a, b) -> bool:
+    """Whether the segment between the centres of cells ``a`` and ``b`` touches only free cells.
+
+    Supercover traversal (every cell the segment passes through, Amanatides–Woo style, exact in
+    integers): where the segment passes exactly through a cell corner, both cells beside the
+    corner are checked, the same no-corner-cutting rule as :func:`astar`'s diagonal steps. So two
+    consecutive cells of an A* path always see each other.
+
+    Args:
+        blocked: (H, W) bool.
+        a, b: cells ``(i, j)`` inside the grid.
+    """
+    blocked = _check_blocked(blocked)
+    i, j = _check_cell(a, blocked.shape, "a")
+    bi, bj = _check_cell(b, blocked.shape, "b")
+    ny, nx = abs(bi - i), abs(bj - j)
+    si, sj = (1 if bi > i else -1), (1 if bj > j else -1)
+    if blocked[i, j]:
+        return False
+    ix = iy = 0
+    while ix < nx or iy < ny:
+        # compare the parameters (ix + ½)/nx and (iy + ½)/ny of the next column and row crossings
+        decision = (1 + 2 * ix) * ny - (1 + 2 * iy) * nx
+        if decision == 0:  # through a corner: both side cells are touched
+            if blocked[i + si, j] or blocked[i, j + sj]:
+                return False
+            i, j, ix, iy = i + si, j + sj, ix + 1, iy + 1
+        elif decision < 0:
+            j, ix = j + sj, ix + 1
+        else:
+            i, iy = i + si, iy + 1
+        if blocked[i, j]:
+            return False
+    return True
+
+
+def shortcut_waypoints(blocked: np.ndarray, cells) -> list:
+    """Greedy string pulling of a grid path: the corner path a navigation mesh would give.
+
+    From the current waypoint, walk along the later path cells while they stay in
+    :func:`line_of_sight` and jump to the last one seen before the first that is hidden; repeat
+    until the goal. Unity's navmesh (SAMP Appendix E) pulls its polygon path taut with a funnel
+    step; on a grid this greedy pass removes the staircase corners A* leaves. The result never
+    is longer than the grid path (triangle inequality), and each leg is obstacle-free at cell
+    resolution.
+
+    Args:
+        blocked: (H, W) bool.
+        cells: (N, 2) path cells, consecutive cells in line of sight (e.g. from :func:`astar`).
+    Returns:
+        ``[(i, j), …]`` waypoints, a subset of ``cells`` that starts and ends with theirs.
+    """
+    pts = [tuple(int(v) for v in c) for c in np.asarray(cells, dtype=np.int64).reshape(-1, 2)]
+    if not pts:
+        raise ValueError("cells: expected a path of at least one cell, got none")
+    out, k = [pts[0]], 0
+    while k < len(pts) - 1:
+        m = k + 1
+        while m + 1 < len(pts) and line_of_sight(blocked, pts[k], pts[m + 1]):
+            m += 1
+        out.append(pts[m])
+        k = m
+    return out
+
+
+# ----------------------------------------------------------------------------- rooms
+
+
+@dataclass
+class PlannedPath:
+    """A planned walk through a room (SAMP §3.3).
+
+    Attributes:
+        cells: (N, 2) int, the A* cells ``(i, j)`` from the start's cell to the goal's (see :func:`plan_path`).
+        points: (N, 2) metres, those cells' centres (xy).
+        waypoints: (M, 2) metres, after shortcutting: the first is the start point itself, the
+            last the goal point itself, those between are cell centres where the path turns.
+        length: metres, the length of the waypoint polyline.
+        grid_cost: metres, the A* cost (:func:`path_cost`) × the cell size.
+        radius: metres, the body radius the occupancy was inflated by.
+    """
+
+    cells: np.ndarray
+    points: np.ndarray
+    waypoints: np.ndarray
+    length: float
+    grid_cost: float
+    radius: float
+
+
+def _check_point(room, xy, name: str) -> np.ndarray:
+    lx, ly = (float(v) for v in np.asarray(room.size).reshape(2))
+    extent = f"[0, {lx}] × [0, {ly}] m"
+    try:
+        arr = np.asarray(xy, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a floor point (x, y) in metres inside the room {extent}, got {xy!r}") from None
+    if arr.shape != (2,) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: expected a floor point (x, y) in metres inside the room {extent}, got {xy!r}")
+    if not (0.0 <= arr[0] <= lx and 0.0 <= arr[1] <= ly):
+        raise ValueError(f"{name}: expected a floor point inside the room {extent}, "
+                         f"got [{arr[0]:g}, {arr[1]:g}]")
+    return arr
+
+
+def _point_cell(room, blocked, xy, name: str, radius: float) -> tuple:
+    """The free cell a point starts or ends on: its own, or (when only its centre is too close to an
+    obstacle, a discretisation effect) the free neighbouring cell whose centre is nearest."""
+    clearance = float(np.asarray(room.obstacle_distance(xy)))
+    if clearance < radius:
+        hint = (" (a goal on furniture, e.g. a seat, is inside the inflated footprint: plan to "
+                "room.approach_point(goal_index) instead)" if name == "goal" else "")
+        raise ValueError(f"{name} [{xy[0]:g}, {xy[1]:g}] m lies inside an obstacle inflated by the body radius "
+                         f"{radius:g} m (clearance {clearance:.3f} m){hint}")
+    top = np.asarray(blocked.shape) - 1
+    ij = np.clip(room.world_to_grid(xy), 0, top)  # a point on the far wall maps to the last cell
+    near = np.clip(ij + np.stack(np.meshgrid([0, -1, 1], [0, -1, 1], indexing="ij"), -1).reshape(-1, 2), 0, top)
+    near = near[~blocked[near[:, 0], near[:, 1]]]
+    if len(near) == 0:
+        raise ValueError(f"{name} [{xy[0]:g}, {xy[1]:g}] m has no free grid cell around it for the body radius "
+                         f"{radius:g} m (clearance {clearance:.3f} m; use a finer cell_size)")
+    best = near[np.argmin(np.linalg.norm(room.grid_to_world(near) - xy, axis=1))]
+    return int(best[0]), int(best[1])
+
+
+def plan_path(room, start, goal, *, radius: Optional[float] = None, shortcut: bool = True) -> PlannedPath:
+    """Plan SAMP's obstacle-free walk from ``start`` to ``goal`` in a room (§3.3, Appendix E).
+
+    The walkable area is the room's grid without the cells closer than ``radius`` to a footprint
+    or a wall (``room.inflated_occupancy``; Appendix E computes the navigation mesh from the
+    character's cylinder collider). A point is inside an obstacle when its own clearance
+    (``room.obstacle_distance``) is below ``radius``; otherwise it maps to its cell, or, when only
+    that cell's centre is too close (within half a cell of the limit), to the nearest free
+    neighbouring cell. :func:`astar` (8-connected) joins the two cells, and :func:`shortcut_waypoints` (or, with ``shortcut=False``, :func:`turning_points`)
+    gives the waypoints; the start and goal points replace their cells' centres at the two ends.
+
+    A goal on furniture (a seat) lies inside the inflated footprint: plan to
+    ``room.approach_point(goal_index)`` and let the action take the last step.
+
+    Args:
+        room: a :class:`~hoi_tutorial.world.scenes.Room` (anything with ``size``, ``cell_size``,
+            ``body_radius``, ``inflated_occupancy``, ``obstacle_distance``, ``world_to_grid``,
+            ``grid_to_world``).
+        start, goal: (2,) xy metres inside the room.
+        radius: body radius in metres (default ``room.body_radius``).
+        shortcut: string-pull the waypoints (True) or keep every turn of the grid path (False).
+    Returns:
+        A :class:`PlannedPath`.
+    Raises:
+        ValueError: a point outside the room or inside an (inflated) obstacle; goal unreachable.
+    """
+    radius = float(room.body_radius if radius is None else radius)
+    if not (math.isfinite(radius) and radius >= 0.0):
+        raise ValueError(f"radius: expected a non-negative number of metres, got {radius}")
+    start = _check_point(room, start, "start")
+    goal = _check_point(room, goal, "goal")
+    blocked = np.asarray(room.inflated_occupancy(radius), dtype=bool)
+    cells = {name: _point_cell(room, blocked, xy, name, radius) for name, xy in (("start", start), ("goal", goal))}
+    try:
+        path = astar(blocked, cells["start"], cells["goal"], diagonal=True)
+    except ValueError as exc:
+        raise ValueError(f"goal [{goal[0]:g}, {goal[1]:g}] m is unreachable from start [{start[0]:g}, {start[1]:g}] m "
+                         f"for a body of radius {radius:g} m ({exc})") from None
+    turns = shortcut_waypoints(blocked, path) if shortcut else turning_points(path)
+    waypoints = room.grid_to_world(np.asarray(turns, dtype=np.int64)).reshape(-1, 2)
+    waypoints[0], waypoints[-1] = start, goal
+    if len(waypoints) == 1:  # start and goal in one cell
+        waypoints = np.stack([start, goal])
+    cells_arr = np.asarray(path, dtype=np.int64).reshape(-1, 2)
+    return PlannedPath(
+        cells=cells_arr,
+        points=room.grid_to_world(cells_arr),
+        waypoints=waypoints,
+        length=float(np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum()),
+        grid_cost=path_cost(path) * float(room.cell_size),
+        radius=radius,
+    )
+
+
+def draw_path(room, path: PlannedPath, ax=None):
+    """Draw the room from above (``room.top_down``), the A* cells (thin line) and the waypoints
+    (markers on a thick line). Returns the matplotlib axes (created if None)."""
+    import matplotlib.pyplot as plt
+
+    ax = ax if ax is not None else plt.gca()
+    room.top_down(ax)
+    ax.plot(path.points[:, 0], path.points[:, 1], "-", color="0.4", linewidth=0.8, label="A* cells")
+    ax.plot(path.waypoints[:, 0], path.waypoints[:, 1], "o-", color="tab:green", linewidth=2.0,
+            markersize=5, label="waypoints")
+    ax.plot(*path.waypoints[0], "s", color="tab:blue", markersize=7, label="start")
+    ax.plot(*path.waypoints[-1], "*", color="tab:red", markersize=10, label="goal")
+    ax.legend(loc="upper right", fontsize=7)
+    return ax
