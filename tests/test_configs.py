@@ -15,6 +15,7 @@ import torch
 from hoi_tutorial.infra import SCALES, artifact_key, scaled_config
 from hoi_tutorial.nifty import (baselines, data, evaluation, interaction_field, motion_model, motion_prior, rollout,
                                 toy2d, trajectories)
+from hoi_tutorial.samp import goalnet
 
 ACTIONS = ("sit", "lift")
 
@@ -31,6 +32,8 @@ FACTORIES = [
     (evaluation, "evaluation_config", evaluation.EvaluationConfig, False),
     (interaction_field, "interaction_field_config", interaction_field.InteractionFieldConfig, True),
     (baselines, "cond_vae_config", baselines.CondVAEConfig, True),
+    (goalnet, "goal_data_config", goalnet.GoalDataConfig, False),
+    (goalnet, "goalnet_config", goalnet.GoalNetConfig, False),
 ]
 
 CASES = [(module, name, cls, scale, action)

@@ -15,6 +15,7 @@ from hoi_tutorial.samp.planning import (
     shortcut_waypoints,
     turning_points,
 )
+from hoi_tutorial.samp import planning
 from hoi_tutorial.world.scenes import make_room
 
 
@@ -235,3 +236,14 @@ def test_draw_path_draws_cells_and_waypoints():
         assert len(ax.lines) >= 2
     finally:
         plt.close(fig)
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_approach_point_agrees_with_the_rooms_own(seed):
+    room = make_room(seed)
+    positions, directions = room.target.sit_goals
+    ours = planning.approach_point(room, positions[0], directions[0])
+    np.testing.assert_allclose(ours, room.approach_point(0), atol=1e-9)
+    assert room.obstacle_distance(ours) >= room.body_radius
+    with pytest.raises(ValueError, match="ground-plane"):
+        planning.approach_point(room, positions[0], [0.0, 0.0, 1.0])

@@ -37,6 +37,7 @@ __all__ = [
     "line_of_sight",
     "shortcut_waypoints",
     "PlannedPath",
+    "approach_point",
     "plan_path",
     "draw_path",
 ]
@@ -311,6 +312,43 @@ def _point_cell(room, blocked, xy, name: str, radius: float) -> tuple:
                          f"{radius:g} m (clearance {clearance:.3f} m; use a finer cell_size)")
     best = near[np.argmin(np.linalg.norm(room.grid_to_world(near) - xy, axis=1))]
     return int(best[0]), int(best[1])
+
+
+def approach_point(room, goal_position, goal_direction, *, radius: Optional[float] = None,
+                   max_distance: float = 1.2) -> np.ndarray:
+    """Where a body of ``radius`` can stand in front of a goal on furniture: (2,) xy metres.
+
+    A sitting goal (GoalNet's, or an object's labelled one) lies on the seat, inside the inflated
+    footprint; SAMP's last sub-task walks to the final waypoint and performs the action there
+    (§3.3). The waypoint is the first point along the goal's forward direction, from 0.3 m to
+    ``max_distance`` in half-cell steps, whose clearance (``room.obstacle_distance``) is at least
+    ``radius`` -- as ``Room.approach_point`` finds it for the room's own labelled goals.
+
+    Args:
+        room: a :class:`~hoi_tutorial.world.scenes.Room`.
+        goal_position: (3,) or (2,) metres, world frame.
+        goal_direction: (3,) or (2,) the goal's forward direction (its ground-plane part is used).
+        radius: body radius in metres (default ``room.body_radius``).
+    Raises:
+        ValueError: a direction with no ground-plane part, or no standing spot along it.
+    """
+    radius = float(room.body_radius if radius is None else radius)
+    position = np.asarray(goal_position, dtype=np.float64).reshape(-1)[:2]
+    heading = np.asarray(goal_direction, dtype=np.float64).reshape(-1)[:2]
+    if position.shape != (2,) or heading.shape != (2,) or not np.all(np.isfinite(np.r_[position, heading])):
+        raise ValueError(f"goal_position, goal_direction: expected finite (3,) or (2,) vectors, got "
+                         f"{goal_position!r}, {goal_direction!r}")
+    norm = float(np.linalg.norm(heading))
+    if norm < 1e-6:
+        raise ValueError(f"goal_direction: expected a direction with a ground-plane part, got {goal_direction!r}")
+    steps = np.arange(0.3, max_distance + 1e-9, room.cell_size / 2)
+    candidates = position + steps[:, None] * heading / norm
+    inside = np.all((candidates >= 0.0) & (candidates <= np.asarray(room.size)), axis=1)
+    ok = np.flatnonzero(inside & (room.obstacle_distance(candidates) >= radius))
+    if len(ok) == 0:
+        raise ValueError(f"approach_point: no standing spot with clearance {radius:g} m within {max_distance:g} m "
+                         f"in front of the goal at [{position[0]:.2f}, {position[1]:.2f}] m")
+    return candidates[ok[0]]
 
 
 def plan_path(room, start, goal, *, radius: Optional[float] = None, shortcut: bool = True) -> PlannedPath:
