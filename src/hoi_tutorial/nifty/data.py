@@ -16,6 +16,7 @@ the prior trained on a few dozen toy clips for under a minute.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import warnings
 from dataclasses import dataclass, field
 from typing import Optional
@@ -251,6 +252,13 @@ def _paths_payload(trees) -> dict:
             "depth": np.array(depth, dtype=np.int64), "leaf": np.array(leaf, dtype=bool), "trees": stats}
 
 
+@functools.lru_cache(maxsize=16)
+def _collected_anchors(action: str, n_subjects: int, anchors_per_subject: int, seed: int, rounds: int) -> tuple:
+    # Anchors come from the toy mocap (seconds for several rounds) and are not stored in the cache; a chapter
+    # loads the same dataset many times (warm_cache first checks every build), so each process makes them once.
+    return tuple(collect_anchors(action, n_subjects, anchors_per_subject, seed, rounds))
+
+
 def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool = True) -> SyntheticDataset:
     """Run (or load) the whole synthetic-data pipeline for one interaction."""
     trained = trained_prior(config, device=device, progress=progress)
@@ -258,7 +266,8 @@ def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool 
     per_round = config.n_subjects * config.anchors_per_subject
 
     def round_anchors(rounds):
-        return collect_anchors(config.action, config.n_subjects, config.anchors_per_subject, config.seed, rounds)
+        return list(_collected_anchors(config.action, config.n_subjects, config.anchors_per_subject, config.seed,
+                                       int(rounds)))
 
     def build():
         prune = prune_settings(config)
