@@ -9,7 +9,6 @@ Both costs are checked equal. It measures and never gates (exit code 0).
     python scripts/bench_astar.py --size 300 --repeats 3
 """
 import argparse
-import math
 import statistics
 import sys
 import time
@@ -20,6 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 import networkx as nx  # noqa: E402
 import numpy as np  # noqa: E402
 
+from hoi_tutorial.samp import planning  # noqa: E402
 from hoi_tutorial.samp.planning import astar, path_cost  # noqa: E402
 
 
@@ -33,28 +33,6 @@ def make_grid(size, seed, density=0.2):
             blocked[gap - 2:gap + 2, col:col + 2] = False
     blocked[:3, :3] = blocked[-3:, -3:] = False
     return blocked
-
-
-def grid_graph(blocked):
-    """The 8-connected graph astar searches: no diagonal step past a blocked side cell."""
-    H, W = blocked.shape
-    graph = nx.Graph()
-    free = [(i, j) for i in range(H) for j in range(W) if not blocked[i, j]]
-    graph.add_nodes_from(free)
-    for i, j in free:
-        for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
-            a, b = i + di, j + dj
-            if not (0 <= a < H and 0 <= b < W) or blocked[a, b]:
-                continue
-            if di and dj and (blocked[i + di, j] or blocked[i, j + dj]):
-                continue
-            graph.add_edge((i, j), (a, b), weight=math.sqrt(2.0) if di and dj else 1.0)
-    return graph
-
-
-def octile(u, v):
-    dx, dy = abs(u[0] - v[0]), abs(u[1] - v[1])
-    return max(dx, dy) + (math.sqrt(2.0) - 1.0) * min(dx, dy)
 
 
 def timed(fn, repeats):
@@ -75,13 +53,13 @@ def main(argv=None):
 
     blocked = make_grid(args.size, args.seed)
     start, goal = (0, 0), (args.size - 1, args.size - 1)
-    graph = grid_graph(blocked)
+    graph = planning.networkx_grid_graph(blocked)
     if not nx.has_path(graph, start, goal):
         print(f"seed {args.seed}: start and goal are not connected; try another seed")
         return 0
 
     ours_s, ours = timed(lambda: astar(blocked, start, goal), args.repeats)
-    nx_s, theirs = timed(lambda: nx.astar_path(graph, start, goal, heuristic=octile, weight="weight"), args.repeats)
+    nx_s, theirs = timed(lambda: nx.astar_path(graph, start, goal, heuristic=planning.grid_distance, weight="weight"), args.repeats)
     ours_cost, nx_cost = path_cost(ours), path_cost(theirs)
     print(f"{args.size}×{args.size} grid, {blocked.mean():.0%} blocked, corner to corner, seed {args.seed}: "
           f"path of {len(ours)} cells, cost {ours_cost:.6f} (networkx {nx_cost:.6f}, "

@@ -20,29 +20,15 @@ from hoi_tutorial.world.scenes import make_room
 
 
 def grid_graph(blocked, diagonal=True):
-    """The graph astar searches: 8-connected without cutting blocked corners (weights 1, √2), or 4-connected."""
-    H, W = blocked.shape
-    graph = nx.Graph()
-    graph.add_nodes_from((i, j) for i in range(H) for j in range(W) if not blocked[i, j])
-    steps = ((0, 1), (1, 0), (1, 1), (1, -1)) if diagonal else ((0, 1), (1, 0))
-    for i, j in list(graph.nodes):
-        for di, dj in steps:
-            a, b = i + di, j + dj
-            if not (0 <= a < H and 0 <= b < W) or blocked[a, b]:
-                continue
-            if di and dj and (blocked[i + di, j] or blocked[i, j + dj]):
-                continue
-            graph.add_edge((i, j), (a, b), weight=math.sqrt(2.0) if di and dj else 1.0)
-    return graph
+    return planning.networkx_grid_graph(blocked, diagonal=diagonal)
 
 
 def octile(u, v):
-    dx, dy = abs(u[0] - v[0]), abs(u[1] - v[1])
-    return max(dx, dy) + (math.sqrt(2.0) - 1.0) * min(dx, dy)
+    return planning.grid_distance(u, v)
 
 
 def manhattan(u, v):
-    return abs(u[0] - v[0]) + abs(u[1] - v[1])
+    return planning.grid_distance(u, v, diagonal=False)
 
 
 def assert_valid_path(path, blocked, start, goal, diagonal=True):

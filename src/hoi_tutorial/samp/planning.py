@@ -19,7 +19,8 @@ At toy scale the walkable area is the room's grid inflated by the body radius
 - :func:`draw_path`: the room from above with the path and its waypoints.
 
 Grid convention (``hoi_tutorial.world.scenes``): cell ``(i, j)`` is row ``i`` along +y, column ``j``
-along +x. This module imports only numpy (matplotlib inside :func:`draw_path`).
+along +x. This module imports only numpy (matplotlib inside :func:`draw_path`, networkx inside
+:func:`networkx_grid_graph`).
 """
 from __future__ import annotations
 
@@ -37,6 +38,8 @@ __all__ = [
     "line_of_sight",
     "shortcut_waypoints",
     "PlannedPath",
+    "grid_distance",
+    "networkx_grid_graph",
     "approach_point",
     "plan_path",
     "draw_path",
@@ -314,41 +317,54 @@ def _point_cell(room, blocked, xy, name: str, radius: float) -> tuple:
     return int(best[0]), int(best[1])
 
 
+def grid_distance(u, v, *, diagonal: bool = True) -> float:
+    """The A* heuristic between cells ``u`` and ``v``: octile distance (8-connected) or Manhattan."""
+    dx, dy = abs(u[0] - v[0]), abs(u[1] - v[1])
+    if not diagonal:
+        return float(dx + dy)
+    return max(dx, dy) + (SQRT2 - 1.0) * min(dx, dy)
+
+
+def networkx_grid_graph(blocked: np.ndarray, *, diagonal: bool = True):
+    """The graph :func:`astar` searches, as a ``networkx.Graph``, to cross-check it against
+    ``networkx.astar_path`` (tests, ``scripts/bench_astar.py``, the chapter).
+
+    Nodes are the free cells ``(i, j)``; edges join 4-neighbours (weight 1) and, when ``diagonal``,
+    diagonal neighbours whose two side cells are free (weight √2). networkx is imported here only.
+    """
+    import networkx as nx
+
+    blocked = _check_blocked(blocked)
+    H, W = blocked.shape
+    graph = nx.Graph()
+    free = [(i, j) for i in range(H) for j in range(W) if not blocked[i, j]]
+    graph.add_nodes_from(free)
+    steps = ((0, 1), (1, 0), (1, 1), (1, -1)) if diagonal else ((0, 1), (1, 0))
+    for i, j in free:
+        for di, dj in steps:
+            a, b = i + di, j + dj
+            if not (0 <= a < H and 0 <= b < W) or blocked[a, b]:
+                continue
+            if di and dj and (blocked[i + di, j] or blocked[i, j + dj]):
+                continue
+            graph.add_edge((i, j), (a, b), weight=SQRT2 if di and dj else 1.0)
+    return graph
+
+
 def approach_point(room, goal_position, goal_direction, *, radius: Optional[float] = None,
                    max_distance: float = 1.2) -> np.ndarray:
     """Where a body of ``radius`` can stand in front of a goal on furniture: (2,) xy metres.
 
     A sitting goal (GoalNet's, or an object's labelled one) lies on the seat, inside the inflated
     footprint; SAMP's last sub-task walks to the final waypoint and performs the action there
-    (§3.3). The waypoint is the first point along the goal's forward direction, from 0.3 m to
-    ``max_distance`` in half-cell steps, whose clearance (``room.obstacle_distance``) is at least
-    ``radius`` -- as ``Room.approach_point`` finds it for the room's own labelled goals.
+    (§3.3). The waypoint is the room's :meth:`~hoi_tutorial.world.scenes.Room.standing_point`: the
+    first point along the goal's forward direction, 0.3 m to ``max_distance``, whose clearance is at
+    least ``radius`` (default ``room.body_radius``).
 
-    Args:
-        room: a :class:`~hoi_tutorial.world.scenes.Room`.
-        goal_position: (3,) or (2,) metres, world frame.
-        goal_direction: (3,) or (2,) the goal's forward direction (its ground-plane part is used).
-        radius: body radius in metres (default ``room.body_radius``).
     Raises:
         ValueError: a direction with no ground-plane part, or no standing spot along it.
     """
-    radius = float(room.body_radius if radius is None else radius)
-    position = np.asarray(goal_position, dtype=np.float64).reshape(-1)[:2]
-    heading = np.asarray(goal_direction, dtype=np.float64).reshape(-1)[:2]
-    if position.shape != (2,) or heading.shape != (2,) or not np.all(np.isfinite(np.r_[position, heading])):
-        raise ValueError(f"goal_position, goal_direction: expected finite (3,) or (2,) vectors, got "
-                         f"{goal_position!r}, {goal_direction!r}")
-    norm = float(np.linalg.norm(heading))
-    if norm < 1e-6:
-        raise ValueError(f"goal_direction: expected a direction with a ground-plane part, got {goal_direction!r}")
-    steps = np.arange(0.3, max_distance + 1e-9, room.cell_size / 2)
-    candidates = position + steps[:, None] * heading / norm
-    inside = np.all((candidates >= 0.0) & (candidates <= np.asarray(room.size)), axis=1)
-    ok = np.flatnonzero(inside & (room.obstacle_distance(candidates) >= radius))
-    if len(ok) == 0:
-        raise ValueError(f"approach_point: no standing spot with clearance {radius:g} m within {max_distance:g} m "
-                         f"in front of the goal at [{position[0]:.2f}, {position[1]:.2f}] m")
-    return candidates[ok[0]]
+    return room.standing_point(goal_position, goal_direction, radius, max_distance)
 
 
 def plan_path(room, start, goal, *, radius: Optional[float] = None, shortcut: bool = True) -> PlannedPath:

@@ -247,23 +247,50 @@ class Room(_GridScene):
         """The object to interact with."""
         return self.objects[self.target_index]
 
-    def approach_point(self, goal_index: int = 0, radius: float | None = None) -> np.ndarray:
-        """Where a body of ``radius`` can stand in front of a sit goal: (2,) xy metres.
+    def standing_point(self, position, direction, radius: float | None = None,
+                       max_distance: float = 1.2) -> np.ndarray:
+        """Where a body of ``radius`` can stand in front of a goal on furniture: (2,) xy metres.
 
-        Walks from the goal along its direction (cell by cell, 0.3 m to 1.2 m) to the first point
-        whose clearance is at least ``radius``. Raises ``ValueError`` when there is none.
+        Walks from ``position`` along the ground-plane part of ``direction`` (half a cell at a time,
+        0.3 m to ``max_distance``) to the first point whose clearance is at least ``radius``.
+
+        Args:
+            position: (3,) or (2,) metres, world frame (a sit goal's pelvis, say).
+            direction: (3,) or (2,) the goal's forward direction.
+            radius: body radius in metres (default ``body_radius``).
+        Raises:
+            ValueError: a direction with no ground-plane part, or no standing spot along it.
+        """
+        radius = self.body_radius if radius is None else radius
+        start = np.asarray(position, dtype=np.float64).reshape(-1)[:2]
+        heading = np.asarray(direction, dtype=np.float64).reshape(-1)[:2]
+        if start.shape != (2,) or heading.shape != (2,) or not np.all(np.isfinite(np.r_[start, heading])):
+            raise ValueError(f"position, direction: expected finite (3,) or (2,) vectors, got {position!r}, {direction!r}")
+        norm = float(np.linalg.norm(heading))
+        if norm < 1e-6:
+            raise ValueError(f"direction: expected a direction with a ground-plane part, got {direction!r}")
+        steps = np.arange(0.3, max_distance + 1e-9, self.cell_size / 2)
+        candidates = start + steps[:, None] * heading / norm
+        # outside the room the wall distance is 0, so no candidate there passes
+        ok = np.flatnonzero(self.obstacle_distance(candidates) >= radius)
+        if len(ok) == 0:
+            raise ValueError(f"standing_point: no standing spot with clearance {radius:g} m within {max_distance:g} m "
+                             f"in front of the goal at [{start[0]:.2f}, {start[1]:.2f}] m")
+        return candidates[ok[0]]
+
+    def approach_point(self, goal_index: int = 0, radius: float | None = None) -> np.ndarray:
+        """Where a body of ``radius`` can stand in front of the target's sit goal ``goal_index``:
+        (2,) xy metres (:meth:`standing_point`). Raises ``ValueError`` when there is none.
         """
         radius = self.body_radius if radius is None else radius
         positions, directions = self.target.sit_goals
         if not 0 <= goal_index < len(positions):
             raise ValueError(f"goal_index: expected an index into {len(positions)} sit goals, got {goal_index}")
-        start, heading = positions[goal_index, :2], directions[goal_index, :2]
-        steps = np.arange(0.3, 1.2 + 1e-9, self.cell_size / 2)
-        candidates = start + steps[:, None] * heading
-        ok = np.flatnonzero(self.obstacle_distance(candidates) >= radius)
-        if len(ok) == 0:
-            raise ValueError(f"approach_point: sit goal {goal_index} has no standing spot with clearance {radius} m")
-        return candidates[ok[0]]
+        try:
+            return self.standing_point(positions[goal_index], directions[goal_index], radius)
+        except ValueError:
+            raise ValueError(f"approach_point: sit goal {goal_index} has no standing spot with clearance {radius} m") \
+                from None
 
     def reachable_mask(self, radius: float | None = None, goal_index: int = 0) -> np.ndarray:
         """(H, W) bool: cells from which a body of ``radius`` walks to the target's approach point."""
