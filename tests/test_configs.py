@@ -15,7 +15,7 @@ import torch
 from hoi_tutorial.infra import SCALES, artifact_key, scaled_config
 from hoi_tutorial.nifty import (baselines, data, evaluation, interaction_field, motion_model, motion_prior, rollout,
                                 toy2d, trajectories)
-from hoi_tutorial.samp import goalnet
+from hoi_tutorial.samp import goalnet, motion_data, motionnet
 
 ACTIONS = ("sit", "lift")
 
@@ -34,6 +34,8 @@ FACTORIES = [
     (baselines, "cond_vae_config", baselines.CondVAEConfig, True),
     (goalnet, "goal_data_config", goalnet.GoalDataConfig, False),
     (goalnet, "goalnet_config", goalnet.GoalNetConfig, False),
+    (motion_data, "motion_data_config", motion_data.MotionDataConfig, False),
+    (motionnet, "motionnet_config", motionnet.MotionNetConfig, False),
 ]
 
 CASES = [(module, name, cls, scale, action)

@@ -248,7 +248,11 @@ def test_moe_blending_weights_equals_blending_outputs():
     weights = torch.softmax(torch.randn(7, 5, generator=g), dim=-1)
     expert_outputs = torch.stack([x @ layer.weight[e] + layer.bias[e] for e in range(5)], dim=1)  # (B, K, out)
     expected = (weights[..., None] * expert_outputs).sum(1)
-    torch.testing.assert_close(layer(x, weights), expected, atol=1e-5, rtol=1e-5)
+    blended_weight, blended_bias = layer.blended_parameters(weights)  # Eq. 2: W = Σ ω_k W_k
+    assert blended_weight.shape == (7, 6, 4) and blended_bias.shape == (7, 4)
+    by_parameters = torch.einsum("bi,bio->bo", x, blended_weight) + blended_bias
+    torch.testing.assert_close(by_parameters, expected, atol=1e-5, rtol=1e-5)
+    torch.testing.assert_close(layer(x, weights), by_parameters, atol=1e-5, rtol=1e-5)
 
 
 def test_moe_one_hot_gating_reduces_to_one_expert():
@@ -267,6 +271,7 @@ def test_gating_and_moe_mlp():
     torch.manual_seed(0)
     gating = GatingNetwork(5, 16, 3)
     w = gating(torch.randn(10, 5, generator=_gen()))
+    assert [m.out_features for m in GatingNetwork(5, (12, 8), 3).net if isinstance(m, torch.nn.Linear)] == [12, 8, 3]
     assert w.shape == (10, 3) and torch.all(w >= 0)
     torch.testing.assert_close(w.sum(-1), torch.ones(10))
     net = MoEMLP(in_dim=6, hidden=16, out_dim=4, n_experts=3, gating_in=5, extra_dim=2)

@@ -33,27 +33,35 @@ class MixtureOfExpertsLinear(nn.Module):
         self.weight = nn.Parameter(torch.empty(self.n_experts, self.in_dim, self.out_dim).uniform_(-bound, bound))
         self.bias = nn.Parameter(torch.empty(self.n_experts, self.out_dim).uniform_(-bound, bound))
 
+    def blended_parameters(self, weights: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Eq. 2 literally: ``W = Σ_k ω_k W_k (B, in_dim, out_dim)`` and ``b = Σ_k ω_k b_k (B, out_dim)``."""
+        check_shape(weights, (None, self.n_experts), "weights")
+        return torch.einsum("bk,kio->bio", weights, self.weight), weights @ self.bias
+
     def forward(self, x: torch.Tensor, weights: torch.Tensor) -> torch.Tensor:
         check_shape(x, (None, self.in_dim), "x")
         check_shape(weights, (x.shape[0], self.n_experts), "weights")
-        blended_weight = torch.einsum("bk,kio->bio", weights, self.weight)  # W = Σ_k ω_k W_k
-        blended_bias = weights @ self.bias  # b = Σ_k ω_k b_k
-        return torch.einsum("bi,bio->bo", x, blended_weight) + blended_bias
+        # x (Σ_k ω_k W_k) + Σ_k ω_k b_k = Σ_k ω_k (x W_k + b_k): the same numbers as the blended
+        # parameters of ``blended_parameters``, without a (B, in_dim, out_dim) tensor per batch.
+        experts = (x @ self.weight.permute(1, 0, 2).reshape(self.in_dim, -1)).view(-1, self.n_experts, self.out_dim)
+        return torch.einsum("bk,bko->bo", weights, experts) + weights @ self.bias
 
 
 class GatingNetwork(nn.Module):
     """Three-layer ELU network giving the expert blending weights: ``(B, in_dim) -> (B, K)``.
 
+    ``hidden`` is one width for both hidden layers or a pair (SAMP Table S.3: {512, 256, 12}).
     The output is a softmax, so each row is non-negative and sums to one.
     """
 
-    def __init__(self, in_dim: int, hidden: int, n_experts: int, dropout: float = 0.0):
+    def __init__(self, in_dim: int, hidden, n_experts: int, dropout: float = 0.0):
         super().__init__()
         self.in_dim, self.n_experts = int(in_dim), int(n_experts)
+        first, second = (int(hidden), int(hidden)) if isinstance(hidden, (int, float)) else map(int, hidden)
         self.net = nn.Sequential(
-            nn.Dropout(dropout), nn.Linear(self.in_dim, hidden), nn.ELU(),
-            nn.Dropout(dropout), nn.Linear(hidden, hidden), nn.ELU(),
-            nn.Dropout(dropout), nn.Linear(hidden, self.n_experts),
+            nn.Dropout(dropout), nn.Linear(self.in_dim, first), nn.ELU(),
+            nn.Dropout(dropout), nn.Linear(first, second), nn.ELU(),
+            nn.Dropout(dropout), nn.Linear(second, self.n_experts),
         )
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -70,17 +78,18 @@ class MoEMLP(nn.Module):
         out_dim: size of the prediction.
         n_experts: K (SAMP: 12).
         gating_in: size of the gating network's input (SAMP: ``[z, x_{i-1}]``).
-        gating_hidden: width of the gating network (default ``hidden``).
+        gating_hidden: width of the gating network's hidden layers, one number or a pair
+            (default ``hidden``).
         extra_dim: size of a vector concatenated to the input of *every* layer (SAMP feeds the
             latent z this way); 0 for none.
         dropout: dropout before each layer.
     """
 
     def __init__(self, in_dim: int, hidden: int, out_dim: int, n_experts: int, gating_in: int,
-                 gating_hidden: Optional[int] = None, extra_dim: int = 0, dropout: float = 0.0):
+                 gating_hidden=None, extra_dim: int = 0, dropout: float = 0.0):
         super().__init__()
         self.in_dim, self.out_dim, self.extra_dim = int(in_dim), int(out_dim), int(extra_dim)
-        self.gating = GatingNetwork(gating_in, int(gating_hidden or hidden), n_experts, dropout)
+        self.gating = GatingNetwork(gating_in, hidden if gating_hidden is None else gating_hidden, n_experts, dropout)
         self.layers = nn.ModuleList([
             MixtureOfExpertsLinear(self.in_dim + self.extra_dim, hidden, n_experts),
             MixtureOfExpertsLinear(hidden + self.extra_dim, hidden, n_experts),

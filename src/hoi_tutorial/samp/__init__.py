@@ -2,11 +2,16 @@
 
 Modules, in the order of the paper:
 
-- ``core``: the networks: the interaction encoder over 8×8×8×4 object voxels, GoalNet's cVAE (§3.1–3.2).
+- ``core``: the networks: the interaction encoder over 8×8×8×4 object voxels, GoalNet's cVAE, MotionNet's
+  cVAE with its mixture-of-experts decoder, and the MLP and MoE baselines (§3.1–3.2, Supp. C).
+- ``motion_data``: toy clips of the five actions as states (Eq. 1), roots, goals and voxels (§4.1).
+- ``motionnet``: MotionNet's training with scheduled sampling (Eq. 3, Eq. 5; Supp. D, G ablations).
+- ``runtime``: the decoder stepping characters from goal to goal (§3, §3.3).
+- ``evaluation``: goal tasks on unseen objects, execution time and precision (§5.2, Tables 2–3).
 - ``goalnet``: goal data from toy objects, GoalNet's training (Eq. 4), sampling and evaluation (§3.2, §4.3, §5.2).
 - ``planning``: A* path planning on a room's grid inflated by the body radius, and the waypoints
   where the path changes direction that the character walks to in turn (§3.3, Appendix E).
 - ``paper_numbers``: the paper's reported numbers, transcribed, for the tables set beside ours.
 
-MotionNet (§3.1), the baselines and the full pipeline follow in later chapters.
+The full pipeline in cluttered rooms and the data augmentation of §4.2 follow in later chapters.
 """

@@ -1,0 +1,404 @@
+"""MotionNet's training data (SAMP §4.1, Eq. 1): toy mocap clips as states, goals and object voxels.
+
+The paper captures ~100 minutes of one subject: idle, walking and running in every direction, and
+sitting and lying down on seven objects after walking up to them from a random start
+(Table S.1). Here the toy mocap stands in: clips of the five SAMP actions (idle, walk, run, sit,
+lie), each turned into per-frame states ``X_i`` (Eq. 1, reduced: ``world.features.samp_pose_state``)
+with the goal the clip is heading for:
+
+- **sit / lie**: the object's sitting (lying) goal the clip ends on, action "sit" ("lie"), during the
+  approach walk too, as in the paper's captures ("the subject starts ... walks towards the object,
+  and performs the action"). Clips end seated or lying (no standing up: at run time a goal is held).
+- **walk / run**: the next waypoint of the clip's path, facing along the leg that reaches it, action
+  "walk" ("run"): the run-time controller walks waypoint to waypoint the same way (§3.3).
+- **idle**: where the clip stands, facing its own facing, action "idle".
+
+The root of every frame is ``(x, y, heading)`` of ``world.features.root_frame``. MotionNet predicts
+the next state in its own root frame together with the root's displacement ``(dx, dy, dθ)``
+expressed in the previous root frame (the Neural State Machine's root update, Starke et al. 2019,
+whose representation SAMP's Eq. 1 follows): SAMP's ``t^p`` and ``t^d`` are relative to the root of
+frame ``i − 1`` and carry the same displacement inside the state.
+
+The interaction voxels ``I`` (8×8×8 cells, centre relative to the root, occupancy) are not stored
+per frame (2048 numbers a frame): each clip keeps its object's cell centres in the world and their
+occupancy, and :func:`voxels_in_root_frame` expresses them in any root frame, in a batch, in torch.
+Locomotion clips have no object: their voxels are zeros.
+
+Scaling (paper → toy): ~185K frames of captured motion → a few hundred toy clips (the ``toy``
+preset: about 20K frames), one body (the mean toy subject), objects from the toy world's chairs,
+armchairs, stools and sofas; the test split uses new object instances and new clips.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+import torch
+
+from .._validate import check_choice, check_shape
+from ..infra import load_or_build, scaled_config
+from ..world import mocap
+from ..world.features import SAMP_ACTIONS, SAMP_STATE_SIZE, root_frame, samp_action_ids, samp_pose_state
+from ..world.motion import Motion
+from ..world.objects import ToyObject, make_object
+
+__all__ = [
+    "MOTION_KINDS",
+    "OBJECT_CATEGORIES",
+    "ROOT_SIZE",
+    "MotionDataConfig",
+    "MOTION_DATA_SCALES",
+    "motion_data_config",
+    "clip_goals",
+    "lie_facing",
+    "root_displacement",
+    "apply_root_displacement",
+    "object_voxel_cells",
+    "voxels_in_root_frame",
+    "MotionData",
+    "make_clip",
+    "motion_data",
+]
+
+MOTION_KINDS = SAMP_ACTIONS  # ("idle", "walk", "run", "sit", "lie"), SAMP §4.1
+# Objects each interaction is captured with (the toy mocap's sittable and lie-able categories).
+OBJECT_CATEGORIES = {"sit": ("chair", "armchair", "stool", "sofa"), "lie": ("sofa",)}
+ROOT_SIZE = 3  # (dx, dy, dθ)
+_SPLITS = ("train", "test")
+
+
+@dataclass(frozen=True)
+class MotionDataConfig:
+    """Which toy clips MotionNet learns from (defaults: the ``toy`` preset).
+
+    Attributes:
+        clips: ``((kind, count), ...)`` training clips per SAMP action. The toy shares follow
+            Table S.1's breakdown (walk 41 %, sit 26 %, idle 18 %, lie 10 %, run 5 % of the minutes)
+            loosely: sit and lie clips begin with a walk, so walking is also learned from them.
+        test_clips: clips per kind in the test split (new clips, new object instances).
+        seed: seeds every clip and object.
+    """
+
+    clips: tuple = (("idle", 10), ("walk", 24), ("run", 8), ("sit", 40), ("lie", 16))
+    test_clips: int = 6
+    seed: int = 0
+
+    def __post_init__(self):
+        for entry in self.clips:
+            if not (isinstance(entry, tuple) and len(entry) == 2 and isinstance(entry[1], int) and entry[1] >= 1):
+                raise ValueError(f"clips: expected (kind, positive count) pairs, got {entry!r}")
+            check_choice(entry[0], MOTION_KINDS, "clips kind")
+        if not isinstance(self.test_clips, int) or self.test_clips < 1:
+            raise ValueError(f"test_clips: expected a positive int, got {self.test_clips!r}")
+
+
+MOTION_DATA_SCALES = {
+    "small": {"clips": (("idle", 30), ("walk", 70), ("run", 24), ("sit", 120), ("lie", 48))},
+    "paper": {"clips": (("idle", 90), ("walk", 210), ("run", 60), ("sit", 360), ("lie", 140)), "test_clips": 20},
+}
+
+
+def motion_data_config(scale: str = "toy", **overrides) -> MotionDataConfig:
+    """The preset for ``scale``, fields overridable."""
+    return scaled_config(MotionDataConfig, scale, MOTION_DATA_SCALES, overrides, factory="motion_data_config")
+
+
+# ----------------------------------------------------------------------------- goals and roots
+
+
+def _forward(heading) -> np.ndarray:
+    heading = np.asarray(heading, dtype=np.float64)
+    return np.stack([-np.sin(heading), np.cos(heading), np.zeros_like(heading)], axis=-1)
+
+
+def _waypoint_goals(root_xy: np.ndarray, waypoints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per frame, the next waypoint of the path and the direction of the leg that reaches it.
+
+    The root is projected onto the path's legs, never going back: while it is nearest to leg
+    ``k`` (from waypoint ``k`` to ``k + 1``) the goal is waypoint ``k + 1``.
+    """
+    legs = np.diff(waypoints, axis=0)
+    lengths = np.linalg.norm(legs, axis=1)
+    units = legs / np.maximum(lengths, 1e-9)[:, None]
+    positions = np.zeros((len(root_xy), 3))
+    directions = np.zeros((len(root_xy), 3))
+    leg = 0
+    for i, p in enumerate(root_xy):
+        while leg < len(legs) - 1:
+            along = float((p - waypoints[leg]) @ units[leg])
+            # past the end of this leg and nearer to the next one: move on
+            d_this = np.linalg.norm(p - (waypoints[leg] + np.clip(along, 0, lengths[leg]) * units[leg]))
+            along_next = float((p - waypoints[leg + 1]) @ units[leg + 1])
+            d_next = np.linalg.norm(p - (waypoints[leg + 1] + np.clip(along_next, 0, lengths[leg + 1]) * units[leg + 1]))
+            if along >= lengths[leg] - 1e-6 or d_next < d_this:
+                leg += 1
+            else:
+                break
+        positions[i, :2] = waypoints[leg + 1]
+        directions[i, :2] = units[leg]
+    return positions, directions
+
+
+def clip_goals(motion: Motion) -> tuple[np.ndarray, np.ndarray, str]:
+    """The goal a toy clip heads for, per frame (see the module docstring).
+
+    Args:
+        motion: a clip from :func:`make_clip` (its ``meta["kind"]`` one of ``MOTION_KINDS``).
+    Returns:
+        ``(positions (T, 3) m, directions (T, 3) unit, goal action name)``. A lying goal's direction
+        is the facing of a body lying on its back along it, ``−direction`` of the object's lie goal
+        (the root frame's forward then points to the feet; measured on toy clips: within 3° of it).
+    """
+    kind = motion.meta.get("kind")
+    check_choice(kind, MOTION_KINDS, "motion.meta['kind']")
+    T = len(motion)
+    origin, heading = root_frame(motion.joints)
+    origin, heading = origin.double().numpy(), heading.double().numpy()
+    if kind == "idle":
+        return np.repeat(origin[:1], T, 0), np.repeat(_forward(heading[:1]), T, 0), "idle"
+    if kind in ("walk", "run"):
+        positions, directions = _waypoint_goals(origin[:, :2], np.asarray(motion.meta["waypoints"], dtype=np.float64))
+        return positions, directions, kind
+    goal = motion.meta["sit_goal" if kind == "sit" else "lie_goal"]
+    direction = np.asarray(goal["direction"], dtype=np.float64)
+    direction = direction if kind == "sit" else lie_facing(direction)
+    return (np.repeat(np.asarray(goal["position"], dtype=np.float64)[None], T, 0),
+            np.repeat(direction[None], T, 0), kind)
+
+
+def lie_facing(direction) -> np.ndarray:
+    """The root frame's forward of a body lying on its back along a lie goal's ``direction (3,)``:
+    ``−direction`` (measured on toy lie clips at the settle frame: within 3°)."""
+    return -np.asarray(direction, dtype=np.float64)
+
+
+def root_displacement(roots: torch.Tensor) -> torch.Tensor:
+    """The root update of each frame in the previous root frame.
+
+    Args:
+        roots: ``(..., T, 3)`` ``(x, y, heading)`` per frame (metres, radians).
+    Returns:
+        ``(..., T − 1, 3)``: ``(dx, dy)`` of root ``i`` seen from root ``i − 1``, and
+        ``dθ = heading_i − heading_{i−1}`` wrapped to (−π, π].
+    """
+    prev, cur = roots[..., :-1, :], roots[..., 1:, :]
+    d = cur[..., :2] - prev[..., :2]
+    c, s = torch.cos(prev[..., 2]), torch.sin(prev[..., 2])
+    # rotate by −heading: [c s; −s c] (d)
+    local = torch.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], dim=-1)
+    dtheta = torch.remainder(cur[..., 2] - prev[..., 2] + math.pi, 2 * math.pi) - math.pi
+    return torch.cat([local, dtheta[..., None]], dim=-1)
+
+
+def apply_root_displacement(root: torch.Tensor, displacement: torch.Tensor) -> torch.Tensor:
+    """Inverse of :func:`root_displacement` for one step: ``(..., 3)`` root, ``(..., 3)`` update -> new root."""
+    c, s = torch.cos(root[..., 2]), torch.sin(root[..., 2])
+    dx, dy = displacement[..., 0], displacement[..., 1]
+    world = torch.stack([c * dx - s * dy, s * dx + c * dy], dim=-1)
+    heading = torch.remainder(root[..., 2] + displacement[..., 2] + math.pi, 2 * math.pi) - math.pi
+    return torch.cat([root[..., :2] + world, heading[..., None]], dim=-1)
+
+
+# ----------------------------------------------------------------------------- voxels
+
+
+def object_voxel_cells(obj: ToyObject, resolution: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """The object's voxel cells in the world: ``(centres (r³, 3) m, occupancy (r³,))``, float32.
+
+    Cells in the order of :meth:`ToyObject.interaction_voxels` flattened, so that
+    :func:`voxels_in_root_frame` reproduces it.
+    """
+    world = obj.interaction_voxels(np.eye(4), resolution).reshape(-1, 4)
+    return world[:, :3].astype(np.float32), world[:, 3].astype(np.float32)
+
+
+def voxels_in_root_frame(centres: torch.Tensor, occupancy: torch.Tensor, roots: torch.Tensor) -> torch.Tensor:
+    """SAMP's interaction representation ``I`` in the character's root frame, batched.
+
+    Args:
+        centres: ``(B, C, 3)`` world cell centres (or ``(C, 3)``, shared).
+        occupancy: ``(B, C)`` (or ``(C,)``).
+        roots: ``(B, 3)`` ``(x, y, heading)``.
+    Returns:
+        ``(B, 4 C)``: per cell ``R(−heading)(centre − (x, y, 0))`` and the occupancy, flattened like
+        ``interaction_voxels(...).reshape(-1)`` (2048 numbers for 8×8×8 cells).
+    """
+    check_shape(roots, (None, 3), "roots")
+    B = roots.shape[0]
+    if centres.dim() == 2:
+        centres, occupancy = centres.expand(B, -1, -1), occupancy.expand(B, -1)
+    check_shape(centres, (B, None, 3), "centres")
+    check_shape(occupancy, tuple(centres.shape[:2]), "occupancy")
+    d = centres[..., :2] - roots[:, None, :2]
+    c, s = torch.cos(roots[:, 2])[:, None], torch.sin(roots[:, 2])[:, None]
+    local = torch.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1], centres[..., 2]], dim=-1)
+    return torch.cat([local, occupancy[..., None]], dim=-1).reshape(B, -1)
+
+
+# ----------------------------------------------------------------------------- clips and the data set
+
+
+def make_clip(kind: str, seed: int, obj: Optional[ToyObject] = None):
+    """One toy clip of a SAMP action: walks and runs start facing a random direction; sit and lie
+    clips end seated or lying (no standing up).
+
+    Args:
+        kind: one of ``MOTION_KINDS``.
+        seed: int.
+        obj: the object for "sit" / "lie" (default: one of ``OBJECT_CATEGORIES[kind]`` from ``seed``).
+    Returns:
+        ``(motion, obj)`` with ``obj`` None for locomotion.
+    """
+    check_choice(kind, MOTION_KINDS, "kind")
+    if kind == "idle":
+        return mocap.generate_clip(kind, seed=seed), None
+    if kind in ("walk", "run"):
+        # "walks and runs in different directions" (§4.1), from a standstill facing anywhere: the
+        # clip first turns on the spot towards its path (a start facing more than 25° away).
+        rng = np.random.default_rng([int(seed), 7])
+        waypoints = (mocap.random_path(rng, int(rng.integers(3, 5)), min_length=5.0) if kind == "run"
+                     else mocap.random_path(rng))
+        start = mocap.standing_pose(position=waypoints[0], heading=float(rng.uniform(-math.pi, math.pi)))
+        motion = mocap.walk_path(waypoints, seed=rng, gait=kind, start=start)
+        motion.meta = {**motion.meta, "kind": kind, "seed": int(seed)}
+        return motion, None
+    rng = np.random.default_rng([int(seed), 7])
+    if obj is None:
+        categories = OBJECT_CATEGORIES[kind]
+        obj = make_object(categories[int(rng.integers(len(categories)))], seed=int(rng.integers(2**31)))
+    # The approach starts 2-4.5 m in front of the object (within ±70° of its front), so that the clip
+    # holds steady walking towards the seat with its goal, as at run time after the last waypoint.
+    centre = obj.pose[:2, 3]
+    front = obj.pose[:2, 1] / np.linalg.norm(obj.pose[:2, 1])
+    angle = rng.uniform(-math.radians(70), math.radians(70))
+    direction = np.array([math.cos(angle) * front[0] - math.sin(angle) * front[1],
+                          math.sin(angle) * front[0] + math.cos(angle) * front[1]])
+    start = centre + rng.uniform(2.0, 4.5) * direction
+    motion = mocap.generate_clip(kind, seed=int(rng.integers(2**31)), obj=obj, stand_up=False, start_position=start)
+    return motion, obj
+
+
+@dataclass
+class MotionData:
+    """Frames of toy clips as SAMP states, with their roots, goals and objects.
+
+    Attributes (``N`` frames over ``n_clips`` clips, concatenated clip after clip):
+        states: ``(N, 437)`` ``X_i`` (``world.features.SAMP_STATE_LAYOUT``).
+        roots: ``(N, 3)`` ``(x, y, heading)`` of each frame's root.
+        goal_positions, goal_directions: ``(N, 3)`` the goal of each frame (world, m / unit).
+        actions: ``(N,)`` int64 SAMP action of each frame (``SAMP_ACTIONS``).
+        clip_start: ``(n_clips + 1,)`` int64 first frame of each clip (and ``N``).
+        clip_kind: ``(n_clips,)`` int64 kind of each clip (index into ``MOTION_KINDS``).
+        clip_object: ``(n_clips,)`` int64 row of ``voxel_centres`` / ``voxel_occupancy``, −1 for none.
+        voxel_centres: ``(n_objects, 512, 3)`` world cell centres; ``voxel_occupancy (n_objects, 512)``.
+        clip_seeds: the seed each clip was made from: ``make_clip(MOTION_KINDS[kind], seed)`` remakes
+            its ``Motion`` and object.
+    """
+
+    states: torch.Tensor
+    roots: torch.Tensor
+    goal_positions: torch.Tensor
+    goal_directions: torch.Tensor
+    actions: torch.Tensor
+    clip_start: torch.Tensor
+    clip_kind: torch.Tensor
+    clip_object: torch.Tensor
+    voxel_centres: torch.Tensor
+    voxel_occupancy: torch.Tensor
+    clip_seeds: list
+
+    def __len__(self) -> int:
+        return int(self.states.shape[0])
+
+    @property
+    def n_clips(self) -> int:
+        return int(self.clip_kind.shape[0])
+
+    def clip_slice(self, clip: int) -> slice:
+        return slice(int(self.clip_start[clip]), int(self.clip_start[clip + 1]))
+
+    def frame_clip(self) -> torch.Tensor:
+        """``(N,)`` the clip of each frame."""
+        lengths = self.clip_start[1:] - self.clip_start[:-1]
+        return torch.repeat_interleave(torch.arange(self.n_clips), lengths)
+
+    def voxels(self, frames: torch.Tensor, roots: Optional[torch.Tensor] = None) -> torch.Tensor:
+        """``(B, 2048)`` interaction voxels of ``frames`` (indices) seen from ``roots`` (default theirs)."""
+        roots = self.roots[frames] if roots is None else roots
+        objects = self.clip_object[self.frame_clip()[frames]]
+        safe = objects.clamp_min(0)
+        out = voxels_in_root_frame(self.voxel_centres[safe], self.voxel_occupancy[safe], roots)
+        return out * (objects >= 0).to(out.dtype)[:, None]
+
+    def windows(self, length: int, stride: Optional[int] = None) -> torch.Tensor:
+        """``(W,)`` first frames of every window of ``length + 1`` frames inside one clip (stride
+        ``length // 2`` by default): inputs ``s .. s + length − 1``, targets ``s + 1 .. s + length``."""
+        if not isinstance(length, int) or length < 1:
+            raise ValueError(f"length: expected a positive int (frames), got {length!r}")
+        stride = max(1, length // 2) if stride is None else int(stride)
+        starts = []
+        for clip in range(self.n_clips):
+            a, b = int(self.clip_start[clip]), int(self.clip_start[clip + 1])
+            starts.extend(range(a, b - length, stride))
+        if not starts:
+            raise ValueError(f"length: every clip is shorter than {length + 1} frames")
+        return torch.as_tensor(starts, dtype=torch.int64)
+
+
+def _clip_list(config: MotionDataConfig, split: str) -> list[tuple[str, int]]:
+    salt = _SPLITS.index(split)
+    out = []
+    for kind, count in config.clips:
+        count = count if split == "train" else config.test_clips
+        k = MOTION_KINDS.index(kind)
+        for i in range(count):
+            out.append((kind, int(np.random.default_rng([config.seed, salt, k, i]).integers(2**31))))
+    return out
+
+
+def motion_data(config: MotionDataConfig, split: str = "train") -> MotionData:
+    """The clips of ``split`` as :class:`MotionData`, built once and then loaded from the cache."""
+    check_choice(split, _SPLITS, "split")
+
+    def build():
+        states, roots, goal_p, goal_d, actions, starts, kinds, objects = [], [], [], [], [], [0], [], []
+        centres, occupancy = [], []
+        for kind, seed in _clip_list(config, split):
+            motion, obj = make_clip(kind, seed)
+            positions, directions, goal_action = clip_goals(motion)
+            _, flat = samp_pose_state(motion, positions, directions, goal_action=goal_action)
+            origin, heading = root_frame(motion.joints)
+            states.append(flat.float())
+            roots.append(torch.cat([origin[:, :2], heading[:, None]], dim=-1).float())
+            goal_p.append(torch.as_tensor(positions, dtype=torch.float32))
+            goal_d.append(torch.as_tensor(directions, dtype=torch.float32))
+            actions.append(torch.as_tensor(samp_action_ids(motion.actions)))
+            starts.append(starts[-1] + len(motion))
+            kinds.append(MOTION_KINDS.index(kind))
+            if obj is None:
+                objects.append(-1)
+            else:
+                c, o = object_voxel_cells(obj)
+                objects.append(len(centres))
+                centres.append(torch.as_tensor(c))
+                occupancy.append(torch.as_tensor(o))
+        if not centres:
+            centres, occupancy = [torch.zeros(512, 3)], [torch.zeros(512)]
+        return {"states": torch.cat(states), "roots": torch.cat(roots), "goal_positions": torch.cat(goal_p),
+                "goal_directions": torch.cat(goal_d), "actions": torch.cat(actions),
+                "clip_start": torch.as_tensor(starts, dtype=torch.int64),
+                "clip_kind": torch.as_tensor(kinds, dtype=torch.int64),
+                "clip_object": torch.as_tensor(objects, dtype=torch.int64),
+                "voxel_centres": torch.stack(centres), "voxel_occupancy": torch.stack(occupancy),
+                "clip_seeds": [seed for _, seed in _clip_list(config, split)]}
+
+    artifact = load_or_build(f"samp_motion_data_{split}", dataclasses.asdict(config), build,
+                             code=(sys.modules[__name__],), verbose=False)
+    data = MotionData(**artifact)
+    if data.states.shape[1] != SAMP_STATE_SIZE:
+        raise ValueError(f"cached motion data: expected states of {SAMP_STATE_SIZE}, got {data.states.shape[1]}")
+    return data

@@ -1,0 +1,360 @@
+"""SAMP at run time (§3, Fig. 2): MotionNet's decoder stepping a character from goal to goal.
+
+The loop, as the paper runs it:
+
+1. the character's state ``X_{i−1}`` and the object's voxels ``I`` seen from its root;
+2. ``Z ~ N(0, σ² I)`` (σ = 1 in §3.1: "sample Z from a standard normal distribution"), and the
+   decoder predicts ``Ŷ_i = [X̂_i, root update]``;
+3. the root moves by the update; close to the goal the future trajectory samples are pulled
+   towards the network's own prediction of them in the goal's frame (:func:`correct_towards_goal`,
+   as SAMP's public run-time code does); the goal features of ``X̂_i`` (``t̃^p``, ``t̃^d``, ``g^p``,
+   ``g^d``, ``g^a``) are then recomputed from the trajectory and the *current* goal — the goal is
+   the controller's input, everything else is the network's (the Neural State Machine's control
+   loop, which SAMP's state follows);
+4. goals come one after the other (§3.3): "each sub-task requires the character to walk to the
+   next waypoint. The final sub-task requires the character to perform the desired action at the
+   final waypoint." A goal is passed when the root comes within its radius.
+
+Everything is batched over ``B`` characters, each with its own goals and object.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+import torch
+
+from .._validate import as_tensor, check_shape
+from ..infra import single_threaded
+from ..world import mocap
+from ..world.features import SAMP_ACTIONS, SAMP_SAMPLE_OFFSETS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE, samp_pose_state
+from ..world.skeleton import NUM_JOINTS
+from .core import MotionModel
+from .motion_data import apply_root_displacement, voxels_in_root_frame
+
+__all__ = [
+    "CURRENT_SAMPLE",
+    "GoalSequence",
+    "goal_features",
+    "correct_towards_goal",
+    "with_goal",
+    "standing_state",
+    "Rollout",
+    "rollout",
+]
+
+_NS, _NA = len(SAMP_SAMPLE_OFFSETS), len(SAMP_ACTIONS)
+CURRENT_SAMPLE = SAMP_SAMPLE_OFFSETS.index(0.0)  # the trajectory sample at the current frame
+
+
+def _rotate(xy: torch.Tensor, angle: torch.Tensor) -> torch.Tensor:
+    """Rotate ``(..., 2)`` vectors by ``angle (...)`` about +Z."""
+    c, s = torch.cos(angle), torch.sin(angle)
+    return torch.stack([c * xy[..., 0] - s * xy[..., 1], s * xy[..., 0] + c * xy[..., 1]], dim=-1)
+
+
+def _heading_of(forward_xy: torch.Tensor) -> torch.Tensor:
+    """Heading (0 faces +Y) of ``(..., 2)`` forward vectors."""
+    return torch.atan2(-forward_xy[..., 0], forward_xy[..., 1])
+
+
+def goal_features(trajectory_positions: torch.Tensor, trajectory_directions: torch.Tensor,
+                  goal_position: torch.Tensor, goal_direction: torch.Tensor, goal_action: torch.Tensor) -> dict:
+    """The goal features of Eq. 1 from a trajectory and a goal, all in the current root frame.
+
+    The same quantities as ``world.features.samp_pose_state`` computes from a whole clip, here from
+    the state's own trajectory samples (what the run-time loop has).
+
+    Args:
+        trajectory_positions: ``(B, 14)`` ``t^p``, the 7 samples' ground positions (x, y).
+        trajectory_directions: ``(B, 14)`` ``t^d``, their forward directions (normalised here).
+        goal_position: ``(B, 3)`` the goal in the root frame (m).
+        goal_direction: ``(B, 3)`` its facing in the root frame (the ground-plane part is used).
+        goal_action: ``(B,)`` int64 index into ``SAMP_ACTIONS``.
+    Returns:
+        dict of ``goal_trajectory_positions (B, 14)``, ``goal_trajectory_directions (B, 14)``,
+        ``goal_positions (B, 21)``, ``goal_directions (B, 21)``, ``goal_actions (B, 35)``.
+    """
+    B = trajectory_positions.shape[0]
+    check_shape(trajectory_positions, (B, 2 * _NS), "trajectory_positions")
+    check_shape(trajectory_directions, (B, 2 * _NS), "trajectory_directions")
+    check_shape(goal_position, (B, 3), "goal_position")
+    check_shape(goal_direction, (B, 3), "goal_direction")
+    origin = trajectory_positions.reshape(B, _NS, 2)
+    forward = trajectory_directions.reshape(B, _NS, 2)
+    forward = forward / forward.norm(dim=-1, keepdim=True).clamp_min(1e-6)
+    sample_heading = _heading_of(forward)  # (B, S)
+    goal_flat = goal_direction[:, :2] / goal_direction[:, :2].norm(dim=-1, keepdim=True).clamp_min(1e-6)
+    goal_heading = _heading_of(goal_flat)[:, None]  # (B, 1)
+    rel_goal = origin - goal_position[:, None, :2]
+    parts = {
+        "goal_trajectory_positions": _rotate(rel_goal, -goal_heading).reshape(B, -1),
+        "goal_trajectory_directions": _rotate(forward, -goal_heading).reshape(B, -1),
+    }
+    to_goal = goal_position[:, None, :2] - origin
+    height = goal_position[:, None, 2:].expand(B, _NS, 1)
+    parts["goal_positions"] = torch.cat([_rotate(to_goal, -sample_heading), height], -1).reshape(B, -1)
+    direction = torch.cat([goal_flat, torch.zeros_like(goal_flat[:, :1])], dim=-1)[:, None].expand(B, _NS, 3)
+    parts["goal_directions"] = torch.cat([_rotate(direction[..., :2], -sample_heading), direction[..., 2:]], -1).reshape(B, -1)
+    one_hot = torch.nn.functional.one_hot(as_tensor(goal_action, "goal_action").long(), _NA).to(trajectory_positions.dtype)
+    parts["goal_actions"] = one_hot[:, None].expand(B, _NS, _NA).reshape(B, -1)
+    return parts
+
+
+def _to_root_frame(roots: torch.Tensor, position: torch.Tensor, direction: torch.Tensor):
+    """A world goal ``(B, 3)``, ``(B, 3)`` seen from ``roots (B, 3)``."""
+    local = position.clone()
+    local[:, :2] = _rotate(position[:, :2] - roots[:, :2], -roots[:, 2])
+    turned = direction.clone()
+    turned[:, :2] = _rotate(direction[:, :2], -roots[:, 2])
+    return local, turned
+
+
+def correct_towards_goal(states: torch.Tensor, roots: torch.Tensor, goal_position: torch.Tensor,
+                         goal_direction: torch.Tensor, sharpness: float = 100.0) -> torch.Tensor:
+    """Blend the future trajectory samples towards the network's own goal-relative prediction of them.
+
+    SAMP's public run-time code (inherited from the Neural State Machine) reads the predicted
+    trajectory twice: as ``t^p, t^d`` in the root frame and as ``t̃^p, t̃^d`` in the goal's frame.
+    Close to the goal it trusts the second, which is anchored on the goal: future sample ``k``
+    (``k = 1 … 3`` after the current one) moves to the goal-frame prediction with weight
+    ``(k / 4)^(sharpness · d_k²)``, ``d_k`` the sample's distance to the goal (m). Far from the goal
+    the weight vanishes; on the goal it is ``k / 4``.
+
+    Args:
+        states: ``(B, 437)`` predicted states (root frame of ``roots``).
+        roots, goal_position, goal_direction: ``(B, 3)`` world.
+        sharpness: the exponent's scale (the public code's 100 per m²).
+    Returns:
+        ``(B, 437)`` with ``t^p, t^d`` of the future samples corrected.
+    """
+    B = states.shape[0]
+    goal, direction = _to_root_frame(roots, goal_position, goal_direction)
+    goal_heading = _heading_of(direction[:, :2] / direction[:, :2].norm(dim=-1, keepdim=True).clamp_min(1e-6))
+    positions = states[:, SAMP_STATE_LAYOUT["trajectory_positions"]].reshape(B, _NS, 2)
+    forwards = states[:, SAMP_STATE_LAYOUT["trajectory_directions"]].reshape(B, _NS, 2)
+    in_goal_p = states[:, SAMP_STATE_LAYOUT["goal_trajectory_positions"]].reshape(B, _NS, 2)
+    in_goal_d = states[:, SAMP_STATE_LAYOUT["goal_trajectory_directions"]].reshape(B, _NS, 2)
+    anchored_p = _rotate(in_goal_p, goal_heading[:, None]) + goal[:, None, :2]
+    anchored_d = _rotate(in_goal_d, goal_heading[:, None])
+    future = torch.arange(_NS) > CURRENT_SAMPLE
+    k = (torch.arange(_NS) - CURRENT_SAMPLE).clamp_min(0).to(states.dtype) / (_NS - CURRENT_SAMPLE)
+    distance = (positions - goal[:, None, :2]).norm(dim=-1)
+    weight = torch.where(future, k.pow(sharpness * distance.square()), torch.zeros_like(distance))[..., None]
+    out = states.clone()
+    out[:, SAMP_STATE_LAYOUT["trajectory_positions"]] = torch.lerp(positions, anchored_p, weight).reshape(B, -1)
+    blended = torch.lerp(forwards, anchored_d, weight)
+    out[:, SAMP_STATE_LAYOUT["trajectory_directions"]] = (blended / blended.norm(dim=-1, keepdim=True).clamp_min(1e-6)).reshape(B, -1)
+    return out
+
+
+def with_goal(states: torch.Tensor, roots: torch.Tensor, goal_position: torch.Tensor, goal_direction: torch.Tensor,
+              goal_action: torch.Tensor) -> torch.Tensor:
+    """``states (B, 437)`` with their goal features recomputed for a world goal.
+
+    Args:
+        roots: ``(B, 3)`` ``(x, y, heading)`` of the states' root frames.
+        goal_position, goal_direction: ``(B, 3)`` world; goal_action: ``(B,)`` ids.
+    """
+    check_shape(states, (None, SAMP_STATE_SIZE), "states")
+    B = states.shape[0]
+    check_shape(roots, (B, 3), "roots")
+    local, direction = _to_root_frame(roots, goal_position, goal_direction)
+    parts = goal_features(states[:, SAMP_STATE_LAYOUT["trajectory_positions"]],
+                          states[:, SAMP_STATE_LAYOUT["trajectory_directions"]], local, direction, goal_action)
+    out = states.clone()
+    for name, values in parts.items():
+        out[:, SAMP_STATE_LAYOUT[name]] = values
+    return out
+
+
+@dataclass
+class GoalSequence:
+    """Goals one after the other, per character (§3.3).
+
+    Attributes:
+        positions: ``(B, G, 3)`` world goal positions (m); directions ``(B, G, 3)``.
+        actions: ``(B, G)`` int64 index into ``SAMP_ACTIONS`` of the action at each goal.
+        radii: ``(B, G)`` a goal is passed when the root is closer than this (m, ground plane); the
+            last real goal of a character is never passed.
+        counts: ``(B,)`` goals per character (rows beyond are padding).
+    """
+
+    positions: torch.Tensor
+    directions: torch.Tensor
+    actions: torch.Tensor
+    radii: torch.Tensor
+    counts: torch.Tensor
+
+    @classmethod
+    def single(cls, positions, directions, actions) -> "GoalSequence":
+        """One goal per character: ``positions (B, 3)``, ``directions (B, 3)``, ``actions`` names or ids."""
+        positions = as_tensor(positions, "positions", dtype=torch.float32).reshape(-1, 1, 3)
+        B = positions.shape[0]
+        directions = as_tensor(directions, "directions", dtype=torch.float32).reshape(B, 1, 3)
+        return cls(positions, directions, _action_ids(actions, B)[:, None], torch.zeros(B, 1),
+                   torch.ones(B, dtype=torch.int64))
+
+    @classmethod
+    def from_lists(cls, goals: list) -> "GoalSequence":
+        """From one list per character of ``(position (3,), direction (3,), action, radius)`` tuples."""
+        if not goals or any(len(g) == 0 for g in goals):
+            raise ValueError("goals: expected a non-empty list of goals for every character")
+        B, G = len(goals), max(len(g) for g in goals)
+        positions, directions = torch.zeros(B, G, 3), torch.zeros(B, G, 3)
+        actions, radii = torch.zeros(B, G, dtype=torch.int64), torch.zeros(B, G)
+        for b, seq in enumerate(goals):
+            for k in range(G):
+                p, d, a, r = seq[min(k, len(seq) - 1)]
+                positions[b, k] = torch.as_tensor(np.asarray(p, dtype=np.float32).reshape(3))
+                directions[b, k] = torch.as_tensor(np.asarray(d, dtype=np.float32).reshape(3))
+                actions[b, k] = int(_action_ids([a], 1)[0])
+                radii[b, k] = float(r)
+        return cls(positions, directions, actions, radii, torch.as_tensor([len(g) for g in goals]))
+
+    def __post_init__(self):
+        check_shape(self.positions, (None, None, 3), "positions")
+        B, G = self.positions.shape[:2]
+        check_shape(self.directions, (B, G, 3), "directions")
+        check_shape(self.actions, (B, G), "actions")
+        check_shape(self.radii, (B, G), "radii")
+        check_shape(self.counts, (B,), "counts")
+
+    def current(self, index: torch.Tensor):
+        rows = torch.arange(self.positions.shape[0])
+        return self.positions[rows, index], self.directions[rows, index], self.actions[rows, index]
+
+    def advance(self, index: torch.Tensor, roots: torch.Tensor) -> torch.Tensor:
+        """The goal index after the roots ``(B, 3)`` moved: a goal within its radius is passed."""
+        position, _, _ = self.current(index)
+        rows = torch.arange(index.shape[0])
+        near = (roots[:, :2] - position[:, :2]).norm(dim=-1) < self.radii[rows, index]
+        return torch.where(near & (index < self.counts - 1), index + 1, index)
+
+
+def _action_ids(actions, B: int) -> torch.Tensor:
+    if isinstance(actions, torch.Tensor):
+        ids = actions.long().reshape(-1)
+    else:
+        values = [actions] if isinstance(actions, (str, int, np.integer)) else list(actions)
+        ids = []
+        for a in values:
+            if isinstance(a, str):
+                if a not in SAMP_ACTIONS:
+                    raise ValueError(f"action: expected one of {SAMP_ACTIONS}, got {a!r}")
+                ids.append(SAMP_ACTIONS.index(a))
+            else:
+                ids.append(int(a))
+        ids = torch.as_tensor(ids, dtype=torch.int64)
+    if ids.numel() == 1:
+        ids = ids.expand(B).clone()
+    if ids.shape != (B,) or bool(((ids < 0) | (ids >= _NA)).any()):
+        raise ValueError(f"actions: expected {B} ids in [0, {_NA}) or names from {SAMP_ACTIONS}")
+    return ids
+
+
+def standing_state(seed: int = 0, frame: int = 30) -> torch.Tensor:
+    """``(437,)`` the state of a character standing still (a toy idle clip's frame ``frame``),
+    goal features zero: a start for :func:`rollout` (set its root and goal with :func:`with_goal`)."""
+    clip = mocap.idle(2.0, seed=seed)
+    _, flat = samp_pose_state(clip)
+    return flat[min(frame, len(clip) - 1)].float()
+
+
+@dataclass
+class Rollout:
+    """What :func:`rollout` produced, frame 0 being the start (``T + 1`` frames).
+
+    Attributes:
+        states: ``(B, T + 1, 437)``; roots ``(B, T + 1, 3)`` ``(x, y, heading)`` world;
+        goal_index: ``(B, T + 1)`` the goal each frame was heading for;
+        actions: ``(B, T + 1)`` the action the state labels its current frame with (``t^a`` at the
+            current sample, arg-max: ``SAMP_ACTIONS``).
+    """
+
+    states: torch.Tensor
+    roots: torch.Tensor
+    goal_index: torch.Tensor
+    actions: torch.Tensor
+
+    def joints(self) -> torch.Tensor:
+        """``(B, T + 1, 22, 3)`` world joint positions (``j^p`` placed at the root)."""
+        B, T1 = self.roots.shape[:2]
+        local = self.states[..., SAMP_STATE_LAYOUT["joint_positions"]].reshape(B, T1, NUM_JOINTS, 3)
+        xy = _rotate(local[..., :2], self.roots[..., None, 2]) + self.roots[..., None, :2]
+        return torch.cat([xy, local[..., 2:]], dim=-1)
+
+    def forward(self) -> torch.Tensor:
+        """``(B, T + 1, 3)`` the root's forward direction in the world."""
+        h = self.roots[..., 2]
+        return torch.stack([-torch.sin(h), torch.cos(h), torch.zeros_like(h)], dim=-1)
+
+
+def current_action(states: torch.Tensor) -> torch.Tensor:
+    """``(...)`` arg-max of ``t^a`` at the current sample of ``states (..., 437)``."""
+    labels = states[..., SAMP_STATE_LAYOUT["trajectory_actions"]]
+    labels = labels.reshape(*labels.shape[:-1], _NS, _NA)[..., CURRENT_SAMPLE, :]
+    return labels.argmax(-1)
+
+
+@torch.no_grad()
+@single_threaded
+def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, goals: GoalSequence,
+            n_frames: int, generator: torch.Generator, voxel_centres: Optional[torch.Tensor] = None,
+            voxel_occupancy: Optional[torch.Tensor] = None, latent_scale: float = 1.0,
+            goal_correction: bool = True) -> Rollout:
+    """Step ``B`` characters for ``n_frames`` frames with the model's decoder.
+
+    Args:
+        model: a trained MotionNet (``Z ~ N(0, latent_scale² I)``) or a deterministic baseline.
+        start: ``(B, 437)`` or ``(437,)`` start states (their goal features are recomputed).
+        start_roots: ``(B, 3)`` world ``(x, y, heading)``.
+        goals: the goals, :class:`GoalSequence` with ``B`` rows.
+        n_frames: frames to generate (30 a second).
+        generator: a CPU ``torch.Generator`` for the latent draws.
+        voxel_centres, voxel_occupancy: ``(B, 512, 3)`` and ``(B, 512)`` each character's object in
+            the world (``motion_data.object_voxel_cells``), or None for no object (zeros).
+        latent_scale: σ of the latent draws.
+        goal_correction: near the goal, blend the future trajectory towards its goal-frame
+            prediction (:func:`correct_towards_goal`, SAMP's public run-time code).
+    Returns:
+        :class:`Rollout`.
+    """
+    if not isinstance(n_frames, int) or n_frames < 1:
+        raise ValueError(f"n_frames: expected a positive int, got {n_frames!r}")
+    if not isinstance(generator, torch.Generator):
+        raise TypeError(f"generator: expected a torch.Generator, got {type(generator).__name__}")
+    roots = as_tensor(start_roots, "start_roots", dtype=torch.float32)
+    check_shape(roots, (None, 3), "start_roots")
+    B = roots.shape[0]
+    x = as_tensor(start, "start", dtype=torch.float32)
+    x = x.expand(B, -1).clone() if x.dim() == 1 else x.clone()
+    check_shape(x, (B, SAMP_STATE_SIZE), "start")
+    if goals.positions.shape[0] != B:
+        raise ValueError(f"goals: expected {B} characters, got {goals.positions.shape[0]}")
+    device = model.x_mean.device
+    index = torch.zeros(B, dtype=torch.int64)
+    x = with_goal(x, roots, *goals.current(index))
+    states, root_track, goal_track = [x], [roots], [index]
+    for _ in range(n_frames):
+        if voxel_centres is None:
+            voxels = torch.zeros(B, 2048)
+        else:
+            voxels = voxels_in_root_frame(voxel_centres, voxel_occupancy, roots)
+        z = None
+        if model.latent:
+            z = latent_scale * torch.randn(B, model.latent, generator=generator)
+        y = model.predict(x.to(device), voxels.to(device), None if z is None else z.to(device)).cpu()
+        roots = apply_root_displacement(roots, y[:, SAMP_STATE_SIZE:])
+        x = y[:, :SAMP_STATE_SIZE]
+        if goal_correction:
+            position, direction, _ = goals.current(index)
+            x = correct_towards_goal(x, roots, position, direction)
+        index = goals.advance(index, roots)
+        x = with_goal(x, roots, *goals.current(index))
+        states.append(x)
+        root_track.append(roots)
+        goal_track.append(index)
+    states = torch.stack(states, dim=1)
+    return Rollout(states, torch.stack(root_track, dim=1), torch.stack(goal_track, dim=1), current_action(states))

@@ -1,0 +1,234 @@
+"""SAMP's MotionNet: data (goals, roots, voxels), the networks, Eq. 5, training and the run-time loop."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from hoi_tutorial.samp import core, motion_data as md, motionnet as mn, runtime as rt
+from hoi_tutorial.world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE, samp_pose_state
+from hoi_tutorial.world.objects import make_object
+from hoi_tutorial.world.rotations import rotation_about_z
+
+pytestmark = pytest.mark.usefixtures("one_cpu_thread")
+
+
+def _tiny_data_config(**overrides):
+    values = {"clips": (("idle", 1), ("walk", 2), ("sit", 2), ("lie", 1)), "test_clips": 1}
+    values.update(overrides)
+    return md.motion_data_config("toy", **values)
+
+
+def _tiny_model_config(**overrides):
+    values = {"state_hidden": (32, 16, 16), "interaction_hidden": (16, 16), "interaction_out": 8,
+              "gating_hidden": (16, 8), "prediction_hidden": 32, "n_experts": 3, "latent": 4,
+              "mlp_hidden": (32, 32), "rollout": 8, "epochs": 2, "c1": 0.0, "c2": 1.0, "batch_size": 4}
+    values.update(overrides)
+    return mn.motionnet_config("toy", **values)
+
+
+def _frame(x, y, heading):
+    F = np.eye(4)
+    F[:3, :3] = rotation_about_z(torch.tensor(float(heading), dtype=torch.float64)).numpy()
+    F[:2, 3] = (x, y)
+    return F
+
+
+# ----------------------------------------------------------------------------- Eq. 5
+
+
+def test_teacher_forcing_probability_at_the_breakpoints():
+    p = mn.teacher_forcing_probability
+    assert p(0, 30, 60) == 1.0 and p(30, 30, 60) == 1.0  # epoch <= C1
+    assert p(45, 30, 60) == pytest.approx(0.5)  # halfway between C1 and C2
+    assert p(31, 30, 60) == pytest.approx(1 - 1 / 30)
+    assert p(60, 30, 60) == 0.0 and p(61, 30, 60) == 0.0 and p(100, 30, 60) == 0.0
+    with pytest.raises(ValueError, match="C1 < C2"):
+        p(10, 60, 30)
+
+
+# ----------------------------------------------------------------------------- voxels and roots
+
+
+def test_voxels_in_root_frame_match_the_objects_own_voxels():
+    obj = make_object("armchair", seed=4).placed(0.7, -1.1, 0.6)
+    centres, occupancy = md.object_voxel_cells(obj)
+    roots = torch.tensor([[0.3, 2.0, 0.4], [-1.5, 0.2, -2.8]])
+    ours = md.voxels_in_root_frame(torch.as_tensor(centres), torch.as_tensor(occupancy), roots)
+    assert ours.shape == (2, core.VOXEL_SIZE)
+    for b, (x, y, h) in enumerate(roots.tolist()):
+        reference = obj.interaction_voxels(_frame(x, y, h)).reshape(-1)
+        np.testing.assert_allclose(ours[b].numpy(), reference, atol=1e-5)
+
+
+def test_voxel_code_unchanged_when_character_and_object_move_together():
+    obj = make_object("chair", seed=2)
+    root = (0.4, -1.2, 0.3)
+    code = obj.interaction_voxels(_frame(*root))
+    # a rigid motion of the ground plane: rotate by 1.1 rad about the origin, then translate
+    angle, shift = 1.1, np.array([2.0, -0.5])
+    rot = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
+    moved_obj = obj.placed(*(rot @ obj.pose[:2, 3] + shift), float(np.arctan2(obj.pose[1, 0], obj.pose[0, 0]) + angle))
+    moved_root = (*(rot @ np.array(root[:2]) + shift), root[2] + angle)
+    np.testing.assert_allclose(moved_obj.interaction_voxels(_frame(*moved_root)), code, atol=1e-5)
+    # and a move of the character alone does change it
+    assert not np.allclose(obj.interaction_voxels(_frame(root[0] + 0.3, root[1], root[2])), code, atol=1e-3)
+
+
+def test_root_displacement_integrates_back_to_the_roots():
+    g = torch.Generator().manual_seed(0)
+    roots = torch.cumsum(torch.randn(40, 3, generator=g) * torch.tensor([0.05, 0.05, 0.2]), dim=0)
+    update = md.root_displacement(roots)
+    assert update.shape == (39, 3)
+    root = roots[0]
+    for k in range(39):
+        root = md.apply_root_displacement(root, update[k])
+    torch.testing.assert_close(root[:2], roots[-1, :2], atol=1e-4, rtol=0)
+    assert abs(math.remainder(float(root[2] - roots[-1, 2]), 2 * math.pi)) < 1e-4
+
+
+# ----------------------------------------------------------------------------- goals of the clips
+
+
+def test_clip_goals_of_each_kind():
+    walk, _ = md.make_clip("walk", 11)
+    positions, directions, action = md.clip_goals(walk)
+    waypoints = np.asarray(walk.meta["waypoints"])
+    assert action == "walk" and positions.shape == (len(walk), 3)
+    # the goals are the path's waypoints after the first, in order, ending on the last
+    seen = [tuple(p) for p in np.unique(positions[:, :2], axis=0)]
+    assert all(any(np.allclose(s, w) for w in waypoints[1:]) for s in seen)
+    np.testing.assert_allclose(positions[-1, :2], waypoints[-1])
+    np.testing.assert_allclose(np.linalg.norm(directions, axis=1), 1.0, atol=1e-9)
+    sit, obj = md.make_clip("sit", 12)
+    positions, directions, action = md.clip_goals(sit)
+    assert action == "sit" and obj is not None and len(sit.meta) > 0
+    np.testing.assert_allclose(positions[0], sit.meta["sit_goal"]["position"])
+    assert sit.meta["anchor_frame"] < len(sit)  # ends seated, the settle frame inside the clip
+    lie, _ = md.make_clip("lie", 13)
+    _, directions, action = md.clip_goals(lie)
+    np.testing.assert_allclose(directions[0], -np.asarray(lie.meta["lie_goal"]["direction"]))
+    with pytest.raises(ValueError, match="kind"):
+        md.make_clip("dance", 0)
+
+
+def test_goal_features_reproduce_the_clip_state():
+    clip, _ = md.make_clip("walk", 5)
+    positions, directions, action = md.clip_goals(clip)
+    parts, states = samp_pose_state(clip, positions, directions, goal_action=action)
+    from hoi_tutorial.world.features import root_frame
+    origin, heading = root_frame(clip.joints)
+    roots = torch.cat([origin[:, :2], heading[:, None]], dim=-1).float()
+    ids = torch.full((len(clip),), SAMP_ACTIONS.index(action))
+    scrambled = states.float().clone()
+    for name in mn.GOAL_FEATURES:
+        scrambled[:, SAMP_STATE_LAYOUT[name]] = 0.0
+    rebuilt = rt.with_goal(scrambled, roots, torch.as_tensor(positions).float(), torch.as_tensor(directions).float(), ids)
+    torch.testing.assert_close(rebuilt, states.float(), atol=1e-5, rtol=0)
+
+
+# ----------------------------------------------------------------------------- data, networks, training
+
+
+def test_motion_data_layout(tmp_cache):
+    data = md.motion_data(_tiny_data_config(), "train")
+    assert data.n_clips == 6 and data.states.shape == (len(data), SAMP_STATE_SIZE)
+    assert int(data.clip_start[-1]) == len(data)
+    assert (data.clip_object >= 0).sum() == 3  # sit, sit and lie clips have objects
+    windows = data.windows(10)
+    clips = data.frame_clip()
+    assert bool((clips[windows] == clips[windows + 10]).all())  # a window never crosses clips
+    idle = int((data.clip_kind == 0).nonzero()[0])
+    frames = torch.arange(data.clip_slice(idle).start, data.clip_slice(idle).start + 3)
+    assert bool((data.voxels(frames) == 0).all())
+    test = md.motion_data(_tiny_data_config(), "test")
+    assert test.n_clips == 4 and not torch.equal(test.states[:10], data.states[:10])
+    with pytest.raises(ValueError, match="split"):
+        md.motion_data(_tiny_data_config(), "validation")
+    with pytest.raises(ValueError, match="clips"):
+        md.motion_data_config(clips=(("swim", 2),))
+
+
+def test_networks_shapes_and_errors():
+    torch.manual_seed(0)
+    x, v = torch.randn(5, SAMP_STATE_SIZE), torch.randn(5, core.VOXEL_SIZE)
+    for kind in mn.MODEL_KINDS:
+        model = mn.build_motion_model(_tiny_model_config(model=kind))
+        z = torch.randn(5, model.latent) if model.latent else None
+        assert model.predict(x, v, z).shape == (5, mn.OUTPUT_SIZE)
+    samp = mn.build_motion_model(_tiny_model_config())
+    assert samp.latent == 4 and mn.build_motion_model(_tiny_model_config(model="moe")).latent == 0
+    with pytest.raises(ValueError, match="latent"):
+        samp.predict(x, v)
+    with pytest.raises(ValueError, match="voxels"):
+        samp.predict(x, torch.randn(5, 8 * 8 * 4 * 4), torch.randn(5, 4))
+    ablated = mn.build_motion_model(_tiny_model_config(use_interaction=False))
+    out = ablated.predict(x, v, torch.zeros(5, 4))
+    torch.testing.assert_close(ablated.predict(x, torch.randn(5, core.VOXEL_SIZE), torch.zeros(5, 4)), out)
+    with pytest.raises(ValueError, match="model"):
+        mn.motionnet_config(model="transformer")
+
+
+def test_training_runs_scheduled_sampling_and_lowers_the_loss(tmp_cache):
+    data = md.motion_data(_tiny_data_config(), "train")
+    config = _tiny_model_config(epochs=6, c1=1.0, c2=3.0, lr=3e-3)
+    model, result = mn.train_motion_model(data, config)
+    p = result.extra["teacher_forcing"]
+    assert p[0] == 1.0 and p[-1] == 0.0  # Eq. 5 ran from ground truth to own predictions
+    early, late = np.mean(result.losses[:5]), np.mean(result.losses[-5:])
+    assert np.isfinite(late) and late < early
+    # without scheduled sampling P stays 1
+    _, flat = mn.train_motion_model(data, _tiny_model_config(epochs=1, scheduled_sampling=False))
+    assert set(flat.extra["teacher_forcing"]) == {1.0}
+
+
+def test_rollout_follows_goals_in_turn():
+    torch.manual_seed(0)
+    model = mn.build_motion_model(_tiny_model_config()).eval()
+    goals = rt.GoalSequence.from_lists([
+        [((1.0, 0.0, 0.0), (1, 0, 0), "walk", 0.5), ((0.0, 0.0, 0.5), (0, 1, 0), "sit", 0.0)],
+        [((0.0, 2.0, 0.0), (0, 1, 0), "run", 0.0)],
+    ])
+    # a goal within its radius is passed; the last goal of a character never is
+    index = torch.zeros(2, dtype=torch.int64)
+    near = torch.tensor([[0.8, 0.1, 0.0], [0.0, 2.0, 0.0]])
+    torch.testing.assert_close(goals.advance(index, near), torch.tensor([1, 0]))
+    torch.testing.assert_close(goals.advance(torch.tensor([1, 0]), torch.zeros(2, 3)), torch.tensor([1, 0]))
+    far = torch.tensor([[2.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    torch.testing.assert_close(goals.advance(index, far), index)
+    out = rt.rollout(model, rt.standing_state(), far, goals, 5, torch.Generator().manual_seed(0))
+    assert out.states.shape == (2, 6, SAMP_STATE_SIZE) and out.joints().shape == (2, 6, 22, 3)
+    # the goal features of every frame are those of the goal it heads for
+    for t in range(6):
+        g = out.states[1, t, SAMP_STATE_LAYOUT["goal_actions"]].reshape(7, 5)
+        assert bool((g.argmax(-1) == SAMP_ACTIONS.index("run")).all())
+        current = int(goals.actions[0, out.goal_index[0, t]])
+        assert int(out.states[0, t, SAMP_STATE_LAYOUT["goal_actions"]].reshape(7, 5)[3].argmax()) == current
+    with pytest.raises(ValueError, match="action"):
+        rt.GoalSequence.single([(0, 0, 0)], [(0, 1, 0)], ["dance"])
+    with pytest.raises(ValueError, match="characters"):
+        rt.rollout(model, rt.standing_state(), far[:1], goals, 5, torch.Generator())
+
+
+def test_correction_pulls_the_future_onto_the_goal_only_near_it():
+    clip, _ = md.make_clip("sit", 3)
+    positions, directions, action = md.clip_goals(clip)
+    _, states = samp_pose_state(clip, positions, directions, goal_action=action)
+    from hoi_tutorial.world.features import root_frame
+    origin, heading = root_frame(clip.joints)
+    roots = torch.cat([origin[:, :2], heading[:, None]], dim=-1).float()
+    goal_p, goal_d = torch.as_tensor(positions).float(), torch.as_tensor(directions).float()
+    states = states.float()
+    # on ground-truth states both readings of the trajectory agree, so the correction changes nothing
+    torch.testing.assert_close(rt.correct_towards_goal(states, roots, goal_p, goal_d), states, atol=1e-5, rtol=0)
+    # a goal-frame prediction that disagrees moves the future samples near the goal, not far from it
+    shifted = states.clone()
+    shifted[:, SAMP_STATE_LAYOUT["goal_trajectory_positions"]] += 0.1
+    moved = (rt.correct_towards_goal(shifted, roots, goal_p, goal_d) - shifted)[:, SAMP_STATE_LAYOUT["trajectory_positions"]]
+    distance = (roots[:, :2] - goal_p[:, :2]).norm(dim=-1)
+    assert moved.abs().amax(-1)[distance > 2.5].max() < 1e-4  # samples at most ~1.5 m ahead
+    settle = int(clip.meta["anchor_frame"])
+    assert moved[settle].abs().max() > 0.02
+    assert moved[settle].reshape(7, 2)[:4].abs().max() < 1e-6  # past and current samples are kept
