@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from hoi_tutorial.samp import core, motion_data as md, motionnet as mn, runtime as rt
-from hoi_tutorial.world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE, samp_pose_state
+from hoi_tutorial.world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE, samp_action_ids, samp_pose_state
 from hoi_tutorial.world.objects import make_object
 from hoi_tutorial.world.rotations import rotation_about_z
 
@@ -232,3 +232,50 @@ def test_correction_pulls_the_future_onto_the_goal_only_near_it():
     settle = int(clip.meta["anchor_frame"])
     assert moved[settle].abs().max() > 0.02
     assert moved[settle].reshape(7, 2)[:4].abs().max() < 1e-6  # past and current samples are kept
+
+
+# ----------------------------------------------------------------------------- evaluation
+
+
+def test_goal_tasks_start_in_front_and_runs_are_measured():
+    from hoi_tutorial.samp import evaluation as ev
+
+    tasks = ev.goal_tasks("sit", 3, seed=4)
+    for t in tasks:
+        distance = np.linalg.norm(t.start_root[:2] - t.goal_position[:2])
+        assert 3.0 <= distance <= 4.0 and t.obj.category in md.OBJECT_CATEGORIES["sit"]
+    lie = ev.goal_tasks("lie", 2, seed=4)
+    positions, directions = lie[0].obj.lie_goals
+    assert any(np.allclose(lie[0].goal_direction, -d) for d in directions)  # lie_facing
+    torch.manual_seed(0)
+    model = mn.build_motion_model(_tiny_model_config(model="moe")).eval()
+    results = ev.run_goal_tasks(model, tasks, seconds=0.5)
+    assert results.rollout.states.shape == (3, 16, SAMP_STATE_SIZE)
+    assert results.execution_time.shape == (3,) and results.reached.dtype == bool
+    # an untrained model does not sit within half a second with its pelvis on the seat
+    assert results.summary()["runs"] == 3 and results.success_rate <= 1.0
+    with pytest.raises(ValueError, match="action"):
+        ev.goal_tasks("dance", 2)
+
+
+def test_run_spread_separates_stochastic_from_deterministic_models():
+    from hoi_tutorial.samp import evaluation as ev
+
+    torch.manual_seed(0)
+    task = ev.goal_tasks("sit", 1, seed=0)[0]
+    deterministic = mn.build_motion_model(_tiny_model_config(model="moe")).eval()
+    stochastic = mn.build_motion_model(_tiny_model_config()).eval()
+    spread = {name: ev.run_spread(ev.repeated_goal_runs(m, task, n_runs=3, seconds=0.3).rollout.states)
+              for name, m in (("moe", deterministic), ("samp", stochastic))}
+    assert spread["moe"] < 1e-8 < spread["samp"]
+
+
+def test_action_frames_keep_the_labelled_frames_per_run():
+    from hoi_tutorial.samp import evaluation as ev
+
+    clip, _ = md.make_clip("sit", 3)
+    states, _ = md.clip_states(clip)
+    sitting = ev.action_frames(states, "sit")
+    labels = samp_action_ids(clip.actions)
+    assert len(sitting) == int((labels == SAMP_ACTIONS.index("sit")).sum()) > 0
+    assert len(ev.action_frames(torch.stack([states, states]), "sit", per_run=5)) == 10

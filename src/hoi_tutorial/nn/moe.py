@@ -43,8 +43,8 @@ class MixtureOfExpertsLinear(nn.Module):
         check_shape(weights, (x.shape[0], self.n_experts), "weights")
         # x (Σ_k ω_k W_k) + Σ_k ω_k b_k = Σ_k ω_k (x W_k + b_k): the same numbers as the blended
         # parameters of ``blended_parameters``, without a (B, in_dim, out_dim) tensor per batch.
-        experts = (x @ self.weight.permute(1, 0, 2).reshape(self.in_dim, -1)).view(-1, self.n_experts, self.out_dim)
-        return torch.einsum("bk,bko->bo", weights, experts) + weights @ self.bias
+        experts = torch.matmul(x, self.weight)  # (K, B, out_dim): x W_k for every expert
+        return torch.einsum("bk,kbo->bo", weights, experts) + weights @ self.bias
 
 
 class GatingNetwork(nn.Module):

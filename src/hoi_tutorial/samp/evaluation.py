@@ -10,6 +10,12 @@
   pelvis and the goal position in the ground plane and RE (degrees) between the root's forward and
   the goal direction (``metrics.goal_precision``), measured ``settle`` seconds after the action began (the character
   has sat down by then: the toy sit-down takes 1–1.5 s).
+- **Diversity** (Table 1, Eq. 6): APD of the local pose features ``X' = {j^p, j^r, j^v}`` over the
+  frames of ten runs from one start with one goal that carry the action's label
+  (``metrics.average_pairwise_distance``), beside the same on ground-truth frames of that action; and the spread *between* runs frame by frame (:func:`run_spread`),
+  which is zero for a deterministic model.
+- **Realism** (Table 4, Eq. 9): Fréchet distance between generated and ground-truth frames of an
+  action on ``X̃ = {j^p, j^r, j^v, t̃^p, t̃^d}`` (``metrics.frechet_distance``).
 - A run **reaches** its goal when the action began within the time limit and PE is below
   ``reach_radius`` (ours: 30 cm; the paper reports no threshold, only ∞ for runs that never act).
 """
@@ -23,14 +29,15 @@ import numpy as np
 import torch
 
 from .._validate import check_choice
-from ..metrics import execution_time, goal_precision
+from ..metrics import average_pairwise_distance, execution_time, goal_precision
 from ..world.features import SAMP_ACTIONS
 from ..world.objects import ToyObject, make_object
 from .core import MotionModel
 from .motion_data import OBJECT_CATEGORIES, lie_facing, object_voxel_cells
 from .runtime import GoalSequence, Rollout, rollout, standing_state
 
-__all__ = ["GoalTask", "goal_tasks", "GoalRunResults", "run_goal_tasks"]
+__all__ = ["GoalTask", "goal_tasks", "GoalRunResults", "run_goal_tasks", "LOCAL_POSE_FEATURES", "FD_FEATURES",
+           "state_features", "direction_runs", "action_frames", "repeated_goal_runs", "run_spread"]
 
 
 @dataclass
@@ -150,3 +157,75 @@ def run_goal_tasks(model: MotionModel, tasks: Sequence[GoalTask], seconds: float
     pe, re, times = np.asarray(pe), np.asarray(re), np.asarray(times)
     reached = np.isfinite(times) & (pe < 100.0 * reach_radius)
     return GoalRunResults(times, pe, re, reached, out, reach_radius)
+
+
+# ----------------------------------------------------------------------------- diversity and realism
+
+LOCAL_POSE_FEATURES = ("joint_positions", "joint_rotations", "joint_velocities")  # X' of Eq. 6
+FD_FEATURES = ("joint_positions", "joint_rotations", "joint_velocities", "goal_trajectory_positions",
+               "goal_trajectory_directions")  # X̃ of Eq. 9
+
+
+def state_features(states: torch.Tensor, parts: Sequence[str]) -> np.ndarray:
+    """``(..., D)`` the named parts of states ``(..., 437)`` side by side (float64 numpy)."""
+    from ..world.features import SAMP_STATE_LAYOUT
+
+    for name in parts:
+        check_choice(name, tuple(SAMP_STATE_LAYOUT), "parts")
+    return torch.cat([states[..., SAMP_STATE_LAYOUT[name]] for name in parts], dim=-1).double().numpy()
+
+
+def direction_runs(model: MotionModel, action: str, n_runs: int = 10, seconds: float = 15.0, seed: int = 0,
+                   latent_scale: float = 1.0, spacing: float = 2.0) -> Rollout:
+    """Table 1's locomotion protocol: from one standing start, ``n_runs`` runs in each of the four
+    directions (front, left, back, right) for ``seconds``, ``action`` "walk" or "run".
+
+    SAMP steers this with the user's controls; here each run follows waypoints ``spacing`` metres
+    apart along its direction, each passed within one metre, so the goal always stays a few metres
+    ahead (as far as the training clips' goals are). ``4 n_runs`` characters in one batch.
+    """
+    check_choice(action, ("walk", "run"), "action")
+    n_frames = int(round(seconds * 30))
+    n_goals = int(math.ceil(seconds * 4.0 / spacing)) + 1  # never runs out, even running
+    sequences = []
+    for k in range(4):
+        angle = k * math.pi / 2
+        d = np.array([-math.sin(angle), math.cos(angle), 0.0])
+        sequences += [[(spacing * (g + 1) * d, d, action, 1.0) for g in range(n_goals)]] * n_runs
+    goals = GoalSequence.from_lists(sequences)
+    roots = torch.zeros(len(sequences), 3)
+    return rollout(model, standing_state(), roots, goals, n_frames, torch.Generator().manual_seed(int(seed)),
+                   latent_scale=latent_scale)
+
+
+def action_frames(states: torch.Tensor, action: str, per_run: Optional[int] = None) -> torch.Tensor:
+    """``(n, 437)`` the states of runs ``states (R, T, 437)`` whose own current label is ``action``.
+
+    Args:
+        per_run: keep at most the first ``per_run`` such frames of each run (e.g. as many as a
+            ground-truth clip holds, so that a long hold after sitting down does not swamp the
+            sit-down itself); None keeps all.
+    """
+    check_choice(action, SAMP_ACTIONS, "action")
+    from .runtime import current_action
+
+    if states.dim() == 2:
+        states = states[None]
+    out = []
+    for run in states:
+        frames = run[current_action(run) == SAMP_ACTIONS.index(action)]
+        out.append(frames if per_run is None else frames[:int(per_run)])
+    return torch.cat(out)
+
+
+def repeated_goal_runs(model: MotionModel, task: GoalTask, n_runs: int = 10, seconds: float = 15.0, seed: int = 0,
+                       latent_scale: float = 1.0) -> GoalRunResults:
+    """Table 1's interaction protocol: the same task (start, object, goal) ``n_runs`` times."""
+    return run_goal_tasks(model, [task] * int(n_runs), seconds=seconds, seed=seed, latent_scale=latent_scale)
+
+
+def run_spread(states: torch.Tensor) -> float:
+    """How far runs from one start part ways: Eq. 6's APD of ``X'`` across the ``R`` runs at each
+    frame, averaged over frames (0 for a deterministic model). ``states (R, T, 437)``."""
+    features = state_features(states, LOCAL_POSE_FEATURES)  # (R, T, D)
+    return float(np.mean(average_pairwise_distance(np.swapaxes(features, 0, 1))))

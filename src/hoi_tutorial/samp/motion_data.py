@@ -54,6 +54,7 @@ __all__ = [
     "MOTION_DATA_SCALES",
     "motion_data_config",
     "clip_goals",
+    "clip_states",
     "lie_facing",
     "root_displacement",
     "apply_root_displacement",
@@ -282,6 +283,18 @@ def make_clip(kind: str, seed: int, obj: Optional[ToyObject] = None):
     return motion, obj
 
 
+def clip_states(motion: Motion) -> tuple[torch.Tensor, torch.Tensor]:
+    """A clip from :func:`make_clip` as SAMP states with its goals (:func:`clip_goals`).
+
+    Returns:
+        ``(states (T, 437), roots (T, 3))``, float32; roots are ``(x, y, heading)``.
+    """
+    positions, directions, goal_action = clip_goals(motion)
+    _, flat = samp_pose_state(motion, positions, directions, goal_action=goal_action)
+    origin, heading = root_frame(motion.joints)
+    return flat.float(), torch.cat([origin[:, :2], heading[:, None]], dim=-1).float()
+
+
 @dataclass
 class MotionData:
     """Frames of toy clips as SAMP states, with their roots, goals and objects.
@@ -323,8 +336,15 @@ class MotionData:
 
     def frame_clip(self) -> torch.Tensor:
         """``(N,)`` the clip of each frame."""
-        lengths = self.clip_start[1:] - self.clip_start[:-1]
-        return torch.repeat_interleave(torch.arange(self.n_clips), lengths)
+        if getattr(self, "_frame_clip", None) is None:
+            lengths = self.clip_start[1:] - self.clip_start[:-1]
+            self._frame_clip = torch.repeat_interleave(torch.arange(self.n_clips), lengths)
+        return self._frame_clip
+
+    def kind_frames(self, kind: str) -> torch.Tensor:
+        """``(n,)`` indices of every frame of the clips of ``kind`` (one of ``MOTION_KINDS``)."""
+        check_choice(kind, MOTION_KINDS, "kind")
+        return torch.nonzero(self.clip_kind[self.frame_clip()] == MOTION_KINDS.index(kind))[:, 0]
 
     def voxels(self, frames: torch.Tensor, roots: Optional[torch.Tensor] = None) -> torch.Tensor:
         """``(B, 2048)`` interaction voxels of ``frames`` (indices) seen from ``roots`` (default theirs)."""
@@ -370,10 +390,9 @@ def motion_data(config: MotionDataConfig, split: str = "train") -> MotionData:
         for kind, seed in _clip_list(config, split):
             motion, obj = make_clip(kind, seed)
             positions, directions, goal_action = clip_goals(motion)
-            _, flat = samp_pose_state(motion, positions, directions, goal_action=goal_action)
-            origin, heading = root_frame(motion.joints)
-            states.append(flat.float())
-            roots.append(torch.cat([origin[:, :2], heading[:, None]], dim=-1).float())
+            flat, root = clip_states(motion)
+            states.append(flat)
+            roots.append(root)
             goal_p.append(torch.as_tensor(positions, dtype=torch.float32))
             goal_d.append(torch.as_tensor(directions, dtype=torch.float32))
             actions.append(torch.as_tensor(samp_action_ids(motion.actions)))

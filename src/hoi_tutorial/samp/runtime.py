@@ -35,6 +35,7 @@ from .motion_data import apply_root_displacement, voxels_in_root_frame
 
 __all__ = [
     "CURRENT_SAMPLE",
+    "current_action",
     "GoalSequence",
     "goal_features",
     "correct_towards_goal",
