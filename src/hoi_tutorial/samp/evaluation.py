@@ -37,7 +37,7 @@ from .motion_data import OBJECT_CATEGORIES, lie_facing, object_voxel_cells
 from .runtime import GoalSequence, Rollout, rollout, standing_state
 
 __all__ = ["GoalTask", "goal_tasks", "GoalRunResults", "run_goal_tasks", "LOCAL_POSE_FEATURES", "FD_FEATURES",
-           "state_features", "direction_runs", "action_frames", "repeated_goal_runs", "run_spread"]
+           "state_features", "direction_runs", "standing_runs", "action_frames", "repeated_goal_runs", "run_spread"]
 
 
 @dataclass
@@ -196,6 +196,17 @@ def direction_runs(model: MotionModel, action: str, n_runs: int = 10, seconds: f
     roots = torch.zeros(len(sequences), 3)
     return rollout(model, standing_state(), roots, goals, n_frames, torch.Generator().manual_seed(int(seed)),
                    latent_scale=latent_scale)
+
+
+def standing_runs(model: MotionModel, n_runs: int = 10, seconds: float = 10.0, seed: int = 0,
+                  latent_scale: float = 1.0) -> Rollout:
+    """Idle: ``n_runs`` characters asked to stay where they stand, facing as they face (goal action
+    "idle" on their own spot)."""
+    if not isinstance(n_runs, int) or n_runs < 1:
+        raise ValueError(f"n_runs: expected a positive int, got {n_runs!r}")
+    goals = GoalSequence.single(torch.zeros(n_runs, 3), torch.tensor([[0.0, 1.0, 0.0]]).expand(n_runs, 3), ["idle"])
+    return rollout(model, standing_state(), torch.zeros(n_runs, 3), goals, int(round(seconds * 30)),
+                   torch.Generator().manual_seed(int(seed)), latent_scale=latent_scale)
 
 
 def action_frames(states: torch.Tensor, action: str, per_run: Optional[int] = None) -> torch.Tensor:
