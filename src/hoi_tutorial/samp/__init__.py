@@ -8,10 +8,11 @@ Modules, in the order of the paper:
 - ``motionnet``: MotionNet's training with scheduled sampling (Eq. 3, Eq. 5; Supp. D, G ablations).
 - ``runtime``: the decoder stepping characters from goal to goal (§3, §3.3).
 - ``evaluation``: goal tasks on unseen objects, execution time and precision (§5.2, Tables 2–3).
+- ``pipeline``: the whole pipeline in a cluttered room — A* sub-tasks, MotionNet, penetration (Fig. 2, §5.2).
 - ``goalnet``: goal data from toy objects, GoalNet's training (Eq. 4), sampling and evaluation (§3.2, §4.3, §5.2).
 - ``planning``: A* path planning on a room's grid inflated by the body radius, and the waypoints
   where the path changes direction that the character walks to in turn (§3.3, Appendix E).
 - ``paper_numbers``: the paper's reported numbers, transcribed, for the tables set beside ours.
 
-The full pipeline in cluttered rooms and the data augmentation of §4.2 follow in later chapters.
+The data augmentation of §4.2 and the NSM-like comparison of Table 5 are still to come.
 """

@@ -1,0 +1,73 @@
+"""SAMP's pipeline in a room: sub-task goals along the A* path, penetration frames, a run end to end."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from hoi_tutorial.samp import motionnet as mn, pipeline as pl
+from hoi_tutorial.world.features import SAMP_STATE_SIZE
+from hoi_tutorial.world.scenes import make_room
+
+pytestmark = pytest.mark.usefixtures("one_cpu_thread")
+
+
+@pytest.fixture(scope="module")
+def tasks():
+    return pl.room_tasks([make_room(k, n_clutter=8) for k in range(2)], seed=0)
+
+
+def test_room_tasks_start_away_from_the_goal(tasks):
+    for task in tasks:
+        assert np.linalg.norm(task.start_root[:2] - task.goal_position[:2]) >= 2.0
+        assert task.room.is_free(task.start_root[None, :2])[0]
+
+
+def test_goals_follow_the_path_and_end_with_the_action(tasks):
+    goals, waypoints = pl.goals_along_path(tasks[0])
+    assert len(goals) == len(waypoints)  # the waypoints after the start, then the sitting goal
+    for (position, direction, action, radius), point in zip(goals[:-1], waypoints[1:]):
+        np.testing.assert_allclose(position[:2], point)
+        assert action == "walk" and radius > 0 and abs(np.linalg.norm(direction) - 1) < 1e-9
+    assert goals[-1][2] == "sit" and goals[-1][3] == 0.0
+    np.testing.assert_allclose(goals[-1][0], tasks[0].goal_position)
+    # the last walk goal is the standing spot in front of the seat
+    spot = tasks[0].room.standing_point(tasks[0].goal_position, tasks[0].goal_direction)
+    np.testing.assert_allclose(waypoints[-1], spot)
+    direct, none = pl.goals_along_path(tasks[0], planning=False)
+    assert none is None and len(direct) == 1 and direct[0][2] == "sit"
+    with pytest.raises(ValueError, match="action"):
+        pl.goals_along_path(tasks[0], action="lie")
+
+
+def test_penetrating_frames_counts_clutter_not_the_target(tasks):
+    room = tasks[0].room
+    deepest = []
+    for i, obj in enumerate(room.objects):  # the deepest of 2000 points in each clutter object's box
+        if i != room.target_index:
+            lo, hi = obj.canonical_bounds
+            candidates = obj.to_world(np.random.default_rng(i).uniform(lo, hi, size=(2000, 3)))
+            deepest.append(candidates[np.argmin(obj.sdf(candidates))])
+    inside_clutter = min(deepest, key=lambda p: room.sdf(p[None])[0])
+    assert room.sdf(inside_clutter[None])[0] < -0.02
+    inside_target = tasks[0].goal_position - np.array([0.0, 0.0, 0.1])  # just under the seated pelvis: in the seat
+    free = np.r_[tasks[0].start_root[:2], 1.0]
+    joints = np.repeat(free[None, None], 3, axis=0).repeat(22, axis=1)
+    joints[1, 5] = inside_clutter
+    joints[2, 5] = inside_target
+    assert room.sdf(inside_target[None])[0] < 0  # it is inside the scene, but only the target
+    np.testing.assert_array_equal(pl.penetrating_frames(room, joints), [False, True, False])
+
+
+def test_room_run_end_to_end_with_and_without_planning(tasks):
+    torch.manual_seed(0)
+    model = mn.build_motion_model(mn.motionnet_config(
+        state_hidden=(16, 8, 8), interaction_hidden=(8, 8), interaction_out=4, gating_hidden=(8, 4),
+        prediction_hidden=16, n_experts=2, latent=2, model="moe")).eval()
+    for planning in (True, False):
+        result = pl.run_room_tasks(model, tasks, seconds=0.4, planning=planning)
+        assert result.rollout.states.shape == (2, 13, SAMP_STATE_SIZE)
+        assert result.penetration.shape == (2,) and 0.0 <= result.penetration_percent <= 100.0
+        assert (result.waypoints[0] is None) == (not planning)
+    with pytest.raises(ValueError, match="tasks"):
+        pl.run_room_tasks(model, [])
