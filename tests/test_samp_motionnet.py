@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from hoi_tutorial.samp import core, motion_data as md, motionnet as mn, runtime as rt
-from hoi_tutorial.world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE, samp_action_ids, samp_pose_state
+from hoi_tutorial.world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE, samp_action_ids
 from hoi_tutorial.world.objects import make_object
 from hoi_tutorial.world.rotations import rotation_about_z
 
@@ -117,10 +117,7 @@ def test_clip_goals_of_each_kind():
 def test_goal_features_reproduce_the_clip_state():
     clip, _ = md.make_clip("walk", 5)
     positions, directions, action = md.clip_goals(clip)
-    parts, states = samp_pose_state(clip, positions, directions, goal_action=action)
-    from hoi_tutorial.world.features import root_frame
-    origin, heading = root_frame(clip.joints)
-    roots = torch.cat([origin[:, :2], heading[:, None]], dim=-1).float()
+    states, roots = md.clip_states(clip)
     ids = torch.full((len(clip),), SAMP_ACTIONS.index(action))
     scrambled = states.float().clone()
     for name in mn.GOAL_FEATURES:
@@ -214,11 +211,8 @@ def test_rollout_follows_goals_in_turn():
 
 def test_correction_pulls_the_future_onto_the_goal_only_near_it():
     clip, _ = md.make_clip("sit", 3)
-    positions, directions, action = md.clip_goals(clip)
-    _, states = samp_pose_state(clip, positions, directions, goal_action=action)
-    from hoi_tutorial.world.features import root_frame
-    origin, heading = root_frame(clip.joints)
-    roots = torch.cat([origin[:, :2], heading[:, None]], dim=-1).float()
+    positions, directions, _ = md.clip_goals(clip)
+    states, roots = md.clip_states(clip)
     goal_p, goal_d = torch.as_tensor(positions).float(), torch.as_tensor(directions).float()
     states = states.float()
     # on ground-truth states both readings of the trajectory agree, so the correction changes nothing

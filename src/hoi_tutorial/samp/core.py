@@ -8,6 +8,8 @@ The object enters as its interaction voxels ``I``: 8×8×8 cells of the object's
 """
 from __future__ import annotations
 
+import abc
+
 import torch
 from torch import nn
 
@@ -114,7 +116,7 @@ class GoalNetCVAE(nn.Module):
             self.normalise_goals(goals), mu, logvar
 
 
-class MotionModel(nn.Module):
+class MotionModel(nn.Module, abc.ABC):
     """What MotionNet and its baselines share: the standardisation of inputs and outputs, and the
     interaction encoder (or none, SAMP Supp. G's ablation).
 
@@ -164,8 +166,10 @@ class MotionModel(nn.Module):
             return voxels.new_zeros(voxels.shape[0], 0)
         return self.interaction((voxels - self.voxel_mean) / self.voxel_std)
 
+    @abc.abstractmethod
     def decode_standardised(self, xn: torch.Tensor, code: torch.Tensor, z=None) -> torch.Tensor:
-        raise NotImplementedError
+        """``ŷ (B, output_size)`` standardised, from ``xn (B, state_size)`` standardised, the interaction
+        code and, for a cVAE, ``z``."""
 
     def predict(self, x_prev: torch.Tensor, voxels: torch.Tensor, z=None) -> torch.Tensor:
         """``Y_i (B, output_size)`` in the data's units from ``X_{i−1}``, ``I`` and (for a cVAE) ``Z``."""

@@ -30,13 +30,13 @@ import torch
 
 from .._validate import check_choice
 from ..metrics import average_pairwise_distance, execution_time, goal_precision
-from ..world.features import SAMP_ACTIONS
+from ..world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT
 from ..world.objects import ToyObject, make_object
 from .core import MotionModel
 from .motion_data import OBJECT_CATEGORIES, lie_facing, object_voxel_cells
-from .runtime import GoalSequence, Rollout, rollout, standing_state
+from .runtime import GoalSequence, Rollout, current_action, rollout, standing_state
 
-__all__ = ["GoalTask", "goal_tasks", "GoalRunResults", "run_goal_tasks", "LOCAL_POSE_FEATURES", "FD_FEATURES",
+__all__ = ["GoalTask", "goal_tasks", "GoalRunResults", "run_goal_tasks", "measure_goal_runs", "LOCAL_POSE_FEATURES", "FD_FEATURES",
            "state_features", "direction_runs", "standing_runs", "action_frames", "repeated_goal_runs", "run_spread"]
 
 
@@ -139,24 +139,38 @@ def run_goal_tasks(model: MotionModel, tasks: Sequence[GoalTask], seconds: float
     roots = torch.as_tensor(np.stack([t.start_root for t in tasks]), dtype=torch.float32)
     out = rollout(model, standing_state(), roots, goals, n_frames, torch.Generator().manual_seed(int(seed)),
                   centres, occupancy, latent_scale=latent_scale)
+    times, pe, re, reached = measure_goal_runs(out, [t.action for t in tasks], [t.goal_position for t in tasks],
+                                               [t.goal_direction for t in tasks], settle, reach_radius)
+    return GoalRunResults(times, pe, re, reached, out, reach_radius)
+
+
+def measure_goal_runs(out: Rollout, actions: Sequence[str], goal_positions: Sequence, goal_directions: Sequence,
+                      settle: float = 1.5, reach_radius: float = 0.3, fps: float = 30.0):
+    """Execution time, PE, RE and reach of each run of a rollout (see the module docstring).
+
+    Args:
+        out: ``B`` runs; actions: the target action of each; goal_positions, goal_directions: ``(3,)`` each.
+    Returns:
+        ``(execution_time (B,) s, PE (B,) cm, RE (B,) degrees, reached (B,) bool)``, ``inf`` where
+        the action never began.
+    """
+    n_frames = out.states.shape[1] - 1
     joints, forward = out.joints().double().numpy(), out.forward().double().numpy()
-    actions = out.actions.numpy()
+    labels = out.actions.numpy()
     times, pe, re = [], [], []
-    for b, task in enumerate(tasks):
-        target = SAMP_ACTIONS.index(task.action)
-        t = execution_time(actions[b], target, fps=fps)
+    for b, (action, position, direction) in enumerate(zip(actions, goal_positions, goal_directions)):
+        t = execution_time(labels[b], SAMP_ACTIONS.index(action), fps=fps)
         times.append(t)
         if not math.isfinite(t):
             pe.append(math.inf)
             re.append(math.inf)
             continue
         frame = min(int(round((t + settle) * fps)), n_frames)
-        error = goal_precision(joints[b, frame, 0], forward[b, frame], task.goal_position, task.goal_direction)
+        error = goal_precision(joints[b, frame, 0], forward[b, frame], position, direction)
         pe.append(100.0 * error["position_error"])
         re.append(error["rotation_error"])
     pe, re, times = np.asarray(pe), np.asarray(re), np.asarray(times)
-    reached = np.isfinite(times) & (pe < 100.0 * reach_radius)
-    return GoalRunResults(times, pe, re, reached, out, reach_radius)
+    return times, pe, re, np.isfinite(times) & (pe < 100.0 * reach_radius)
 
 
 # ----------------------------------------------------------------------------- diversity and realism
@@ -168,8 +182,6 @@ FD_FEATURES = ("joint_positions", "joint_rotations", "joint_velocities", "goal_t
 
 def state_features(states: torch.Tensor, parts: Sequence[str]) -> np.ndarray:
     """``(..., D)`` the named parts of states ``(..., 437)`` side by side (float64 numpy)."""
-    from ..world.features import SAMP_STATE_LAYOUT
-
     for name in parts:
         check_choice(name, tuple(SAMP_STATE_LAYOUT), "parts")
     return torch.cat([states[..., SAMP_STATE_LAYOUT[name]] for name in parts], dim=-1).double().numpy()
@@ -218,8 +230,6 @@ def action_frames(states: torch.Tensor, action: str, per_run: Optional[int] = No
             sit-down itself); None keeps all.
     """
     check_choice(action, SAMP_ACTIONS, "action")
-    from .runtime import current_action
-
     if states.dim() == 2:
         states = states[None]
     out = []

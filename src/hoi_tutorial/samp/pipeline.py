@@ -30,10 +30,9 @@ import numpy as np
 import torch
 
 from .._validate import check_choice
-from ..metrics import execution_time, goal_precision
-from ..world.features import SAMP_ACTIONS
 from ..world.primitives import union_sdf
 from .core import MotionModel
+from .evaluation import measure_goal_runs
 from .motion_data import object_voxel_cells
 from .planning import plan_path
 from .runtime import GoalSequence, Rollout, rollout, standing_state
@@ -168,23 +167,12 @@ def run_room_tasks(model: MotionModel, tasks: Sequence[RoomTask], seconds: float
     roots = torch.as_tensor(np.stack([t.start_root for t in tasks]), dtype=torch.float32)
     out = rollout(model, standing_state(), roots, goals, n_frames, torch.Generator().manual_seed(int(seed)),
                   centres, occupancy, latent_scale=latent_scale)
-    joints, forward = out.joints().double().numpy(), out.forward().double().numpy()
-    actions = out.actions.numpy()
-    times, pe, re, pen = [], [], [], []
+    times, pe, re, reached = measure_goal_runs(out, ["sit"] * len(tasks), [t.goal_position for t in tasks],
+                                               [t.goal_direction for t in tasks], settle, reach_radius, fps)
+    joints = out.joints().double().numpy()
+    pen = []
     for b, task in enumerate(tasks):
-        t = execution_time(actions[b], SAMP_ACTIONS.index("sit"), fps=fps)
-        times.append(t)
         # penetration while navigating: up to the sit (or the whole run when it never sat)
-        end = int(round(t * fps)) if math.isfinite(t) else n_frames
+        end = int(round(times[b] * fps)) if math.isfinite(times[b]) else n_frames
         pen.append(penetrating_frames(task.room, joints[b, :max(end, 1)]).mean())
-        if not math.isfinite(t):
-            pe.append(math.inf)
-            re.append(math.inf)
-            continue
-        frame = min(int(round((t + settle) * fps)), n_frames)
-        error = goal_precision(joints[b, frame, 0], forward[b, frame], task.goal_position, task.goal_direction)
-        pe.append(100.0 * error["position_error"])
-        re.append(error["rotation_error"])
-    pe, re, times = np.asarray(pe), np.asarray(re), np.asarray(times)
-    reached = np.isfinite(times) & (pe < 100.0 * reach_radius)
     return RoomRunResults(times, pe, re, reached, np.asarray(pen), out, [w for _, w in plans], reach_radius)
