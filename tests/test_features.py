@@ -182,6 +182,20 @@ def test_samp_state_shapes_and_frames():
     torch.testing.assert_close(goal[:, 3].norm(dim=-1), truth.norm(dim=-1), atol=1e-5, rtol=0)
 
 
+def test_samp_state_takes_a_goal_action_per_frame():
+    T = 12
+    motion = _toy_motion(6, T=T)
+    labels = ["walk"] * 5 + ["sit"] * 7
+    parts, _ = F.samp_pose_state(motion, [1.0, 0.0, 0.4], [0.0, 1.0], goal_action=labels)
+    ids = parts["goal_actions"].reshape(T, 7, 5).argmax(-1)
+    expected = torch.as_tensor(F.samp_action_ids(labels))
+    assert torch.equal(ids, expected[:, None].expand(T, 7))  # every sample of a frame carries its frame's goal
+    single, _ = F.samp_pose_state(motion, [1.0, 0.0, 0.4], [0.0, 1.0], goal_action="sit")
+    torch.testing.assert_close(parts["goal_actions"][5:], single["goal_actions"][5:])
+    with pytest.raises(ValueError, match="goal_action"):
+        F.samp_pose_state(motion, [1.0, 0.0, 0.4], [0.0, 1.0], goal_action=["walk"] * 3)
+
+
 def test_samp_state_is_invariant_to_moving_the_clip():
     motion = _toy_motion(4, T=20)
     moved = motion.transformed(yaw=1.3, translation=(0.5, -0.7, 0.0))

@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from hoi_tutorial.samp import core, motion_data as md, motionnet as mn, runtime as rt
-from hoi_tutorial.world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE, samp_action_ids
+from hoi_tutorial.world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE, root_frame, samp_action_ids
 from hoi_tutorial.world.objects import make_object
 from hoi_tutorial.world.rotations import rotation_about_z
 
@@ -96,7 +96,7 @@ def test_clip_goals_of_each_kind():
     walk, _ = md.make_clip("walk", 11)
     positions, directions, action = md.clip_goals(walk)
     waypoints = np.asarray(walk.meta["waypoints"])
-    assert action == "walk" and positions.shape == (len(walk), 3)
+    assert np.all(action == SAMP_ACTIONS.index("walk")) and positions.shape == (len(walk), 3)
     # the goals are the path's waypoints after the first, in order, ending on the last
     seen = [tuple(p) for p in np.unique(positions[:, :2], axis=0)]
     assert all(any(np.allclose(s, w) for w in waypoints[1:]) for s in seen)
@@ -104,21 +104,54 @@ def test_clip_goals_of_each_kind():
     np.testing.assert_allclose(np.linalg.norm(directions, axis=1), 1.0, atol=1e-9)
     sit, obj = md.make_clip("sit", 12)
     positions, directions, action = md.clip_goals(sit)
-    assert action == "sit" and obj is not None and len(sit.meta) > 0
-    np.testing.assert_allclose(positions[0], sit.meta["sit_goal"]["position"])
+    assert action[-1] == SAMP_ACTIONS.index("sit") and obj is not None
+    np.testing.assert_allclose(positions[-1], sit.meta["sit_goal"]["position"])
     assert sit.meta["anchor_frame"] < len(sit)  # ends seated, the settle frame inside the clip
     lie, _ = md.make_clip("lie", 13)
     _, directions, action = md.clip_goals(lie)
-    np.testing.assert_allclose(directions[0], -np.asarray(lie.meta["lie_goal"]["direction"]))
+    np.testing.assert_allclose(directions[-1], -np.asarray(lie.meta["lie_goal"]["direction"]))
     with pytest.raises(ValueError, match="kind"):
         md.make_clip("dance", 0)
+
+
+def test_walk_first_clips_switch_from_a_walk_goal_to_the_seat_near_the_standing_spot():
+    kinds = {True: 0, False: 0}
+    for seed in range(12):
+        clip, _ = md.make_clip("sit", seed, walk_first_share=0.5)
+        positions, directions, action = md.clip_goals(clip)
+        seat = np.asarray(clip.meta["sit_goal"]["position"])
+        walk = action == SAMP_ACTIONS.index("walk")
+        kinds[bool(clip.meta["walk_first"])] += 1
+        if not clip.meta["walk_first"]:
+            assert not walk.any() and np.allclose(positions, seat)
+            continue
+        # a walk goal first, then the seat for the rest of the clip (one switch, never back)
+        assert walk[0] and not walk[-1] and np.all(np.diff(walk.astype(int)) <= 0)
+        switch = int(np.argmin(walk))
+        root = root_frame(clip.joints)[0].numpy()[:, :2]
+        spot = positions[0, :2]
+        assert np.linalg.norm(root[switch] - spot) < md.WALK_SWITCH_RADIUS <= np.linalg.norm(root[switch - 1] - spot)
+        np.testing.assert_allclose(positions[switch:], np.repeat(seat[None], len(clip) - switch, 0))
+        # the walk goal faces along the approach, from the start to the spot
+        leg = spot - root[0]
+        np.testing.assert_allclose(directions[0, :2], leg / np.linalg.norm(leg), atol=1e-9)
+        # the state carries the goal's action frame by frame
+        states, _ = md.clip_states(clip)
+        one_hot = states[:, SAMP_STATE_LAYOUT["goal_actions"]].reshape(len(clip), 7, 5)[:, 3].argmax(-1).numpy()
+        np.testing.assert_array_equal(one_hot, action)
+    assert kinds[True] > 0 and kinds[False] > 0
+    # the share is a config field: none and all of the clips walk first at its ends
+    assert not any(md.make_clip("sit", seed, walk_first_share=0.0)[0].meta["walk_first"] for seed in range(6))
+    assert all(md.make_clip("lie", seed, walk_first_share=1.0)[0].meta["walk_first"] for seed in range(6))
+    with pytest.raises(ValueError, match="walk_first_share"):
+        md.motion_data_config(walk_first_share=1.5)
 
 
 def test_goal_features_reproduce_the_clip_state():
     clip, _ = md.make_clip("walk", 5)
     positions, directions, action = md.clip_goals(clip)
     states, roots = md.clip_states(clip)
-    ids = torch.full((len(clip),), SAMP_ACTIONS.index(action))
+    ids = torch.as_tensor(action)
     scrambled = states.float().clone()
     for name in mn.GOAL_FEATURES:
         scrambled[:, SAMP_STATE_LAYOUT[name]] = 0.0

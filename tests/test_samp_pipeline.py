@@ -1,11 +1,13 @@
 """SAMP's pipeline in a room: sub-task goals along the A* path, penetration frames, a run end to end."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
 
-from hoi_tutorial.samp import motionnet as mn, pipeline as pl
+from hoi_tutorial.samp import goalnet as gn, motionnet as mn, pipeline as pl
 from hoi_tutorial.world.features import SAMP_STATE_SIZE
 from hoi_tutorial.world.scenes import make_room
 
@@ -17,10 +19,14 @@ def tasks():
     return pl.room_tasks([make_room(k, n_clutter=8) for k in range(2)], seed=0)
 
 
-def test_room_tasks_start_away_from_the_goal(tasks):
+def test_room_tasks_start_away_from_the_goal_facing_it(tasks):
     for task in tasks:
-        assert np.linalg.norm(task.start_root[:2] - task.goal_position[:2]) >= 2.0
+        to_goal = task.goal_position[:2] - task.start_root[:2]
+        assert np.linalg.norm(to_goal) >= 2.0
         assert task.room.is_free(task.start_root[None, :2])[0]
+        # the root frame's forward (−sin θ, cos θ) points within 30° of the goal
+        forward = np.array([-np.sin(task.start_root[2]), np.cos(task.start_root[2])])
+        assert forward @ to_goal / np.linalg.norm(to_goal) >= np.cos(np.radians(30.0)) - 1e-9
 
 
 def test_goals_follow_the_path_and_end_with_the_action(tasks):
@@ -38,6 +44,29 @@ def test_goals_follow_the_path_and_end_with_the_action(tasks):
     assert none is None and len(direct) == 1 and direct[0][2] == "sit"
     with pytest.raises(ValueError, match="action"):
         pl.goals_along_path(tasks[0], action="lie")
+
+
+def test_a_start_outside_the_room_is_a_clear_error(tasks):
+    task = tasks[0]
+    outside = dataclasses.replace(task, start_root=np.array([task.room.size[0] + 1.0, 1.0, 0.0]))
+    for planning in (True, False):
+        with pytest.raises(ValueError, match=r"start: expected a floor point inside the room"):
+            pl.goals_along_path(outside, planning=planning)
+
+
+def test_goalnet_tasks_take_a_proposed_goal_with_a_standing_spot():
+    torch.manual_seed(0)
+    model = gn.build_goalnet(gn.goalnet_config(interaction_hidden=(16,), interaction_out=4, hidden=(16,), latent=2)).eval()
+    rooms = [make_room(k, n_clutter=8) for k in range(2)]
+    tasks = pl.room_tasks(rooms, seed=0, goalnet=model)
+    for task, room in zip(tasks, rooms):
+        room.standing_point(task.goal_position, task.goal_direction)  # raises when there is none
+        assert np.linalg.norm(task.start_root[:2] - task.goal_position[:2]) >= 2.0
+    # the goal is one GoalNet proposed: the same draw as sample_goals with the task's generator
+    again = pl.room_tasks(rooms, seed=0, goalnet=model)
+    np.testing.assert_array_equal(again[0].goal_position, tasks[0].goal_position)
+    labelled = pl.room_tasks(rooms, seed=0)
+    assert not np.allclose(labelled[0].goal_position, tasks[0].goal_position)
 
 
 def test_penetrating_frames_counts_clutter_not_the_target(tasks):

@@ -209,6 +209,24 @@ def test_plan_path_unreachable_goal():
         plan_path(r, start, r.grid_to_world(cell))
 
 
+@pytest.mark.parametrize("seed", [0, 3, 7])
+def test_reaches_agrees_with_plan_path(seed):
+    r = room(seed)
+    goal = r.approach_point(0)
+    # starts that reach the goal and free cells anywhere (some of them cut off from it)
+    free_cells = np.argwhere(~r.inflated_occupancy(r.body_radius))[::97]
+    starts = np.vstack([r.start_positions(20, seed=seed), r.grid_to_world(free_cells)])
+    expected = []
+    for xy in starts:
+        try:
+            plan_path(r, xy, goal)
+            expected.append(True)
+        except ValueError:
+            expected.append(False)
+    np.testing.assert_array_equal(planning.reaches(r, starts, goal), expected)
+    assert not planning.reaches(r, [[r.size[0] + 1.0, 1.0]], goal).any()  # outside the room
+
+
 def test_draw_path_draws_cells_and_waypoints():
     import matplotlib.pyplot as plt
 

@@ -9,6 +9,14 @@ with the goal the clip is heading for:
 - **sit / lie**: the object's sitting (lying) goal the clip ends on, action "sit" ("lie"), during the
   approach walk too, as in the paper's captures ("the subject starts ... walks towards the object,
   and performs the action"). Clips end seated or lying (no standing up: at run time a goal is held).
+  A share of them (``MotionDataConfig.walk_first_share``; none in the presets) walk to the spot
+  where the approach walk ends under a *walk* goal first, facing along the approach, and switch to
+  the sitting (lying) goal once the root is within ``WALK_SWITCH_RADIUS`` of it. SAMP's run-time
+  planner gives exactly that sequence (§3.3: "walk to the next waypoint ... perform the desired
+  action at the final waypoint"), and a model that never saw the goal switch from a walk target to a
+  seat in mid-stride follows it poorly; with half of the clips walking first, the open-space sits
+  of the MotionNet chapter become fewer. The pipeline chapter trains both and compares them in rooms.
+  The paper does not say how its goals were labelled along the captures; this is our choice.
 - **walk / run**: the next waypoint of the clip's path, facing along the leg that reaches it, action
   "walk" ("run"): the run-time controller walks waypoint to waypoint the same way (§3.3).
 - **idle**: where the clip stands, facing its own facing, action "idle".
@@ -43,13 +51,14 @@ from .._validate import check_choice, check_shape
 from ..infra import load_or_build, scaled_config
 from ..world import mocap
 from ..world.features import SAMP_ACTIONS, SAMP_STATE_SIZE, root_frame, samp_action_ids, samp_pose_state
-from ..world.motion import Motion
+from ..world.motion import ACTIONS, Motion
 from ..world.objects import ToyObject, make_object
 
 __all__ = [
     "MOTION_KINDS",
     "OBJECT_CATEGORIES",
     "ROOT_SIZE",
+    "WALK_SWITCH_RADIUS",
     "MotionDataConfig",
     "MOTION_DATA_SCALES",
     "motion_data_config",
@@ -69,6 +78,7 @@ MOTION_KINDS = SAMP_ACTIONS  # ("idle", "walk", "run", "sit", "lie"), SAMP §4.1
 # Objects each interaction is captured with (the toy mocap's sittable and lie-able categories).
 OBJECT_CATEGORIES = {"sit": ("chair", "armchair", "stool", "sofa"), "lie": ("sofa",)}
 ROOT_SIZE = 3  # (dx, dy, dθ)
+WALK_SWITCH_RADIUS = 1.5  # metres: a walk-first clip's goal becomes the seat within this of the standing spot
 _SPLITS = ("train", "test")
 
 
@@ -81,11 +91,14 @@ class MotionDataConfig:
             Table S.1's breakdown (walk 41 %, sit 26 %, idle 18 %, lie 10 %, run 5 % of the minutes)
             loosely: sit and lie clips begin with a walk, so walking is also learned from them.
         test_clips: clips per kind in the test split (new clips, new object instances).
+        walk_first_share: the share of sit and lie clips that walk to the end of their approach
+            under a walk goal first (see the module docstring; ours, SAMP labels no such goals).
         seed: seeds every clip and object.
     """
 
     clips: tuple = (("idle", 10), ("walk", 24), ("run", 8), ("sit", 40), ("lie", 16))
     test_clips: int = 6
+    walk_first_share: float = 0.0
     seed: int = 0
 
     def __post_init__(self):
@@ -95,6 +108,8 @@ class MotionDataConfig:
             check_choice(entry[0], MOTION_KINDS, "clips kind")
         if not isinstance(self.test_clips, int) or self.test_clips < 1:
             raise ValueError(f"test_clips: expected a positive int, got {self.test_clips!r}")
+        if not 0.0 <= self.walk_first_share <= 1.0:
+            raise ValueError(f"walk_first_share: expected a share in [0, 1], got {self.walk_first_share!r}")
 
 
 MOTION_DATA_SCALES = {
@@ -144,31 +159,45 @@ def _waypoint_goals(root_xy: np.ndarray, waypoints: np.ndarray) -> tuple[np.ndar
     return positions, directions
 
 
-def clip_goals(motion: Motion) -> tuple[np.ndarray, np.ndarray, str]:
+def clip_goals(motion: Motion) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The goal a toy clip heads for, per frame (see the module docstring).
 
     Args:
         motion: a clip from :func:`make_clip` (its ``meta["kind"]`` one of ``MOTION_KINDS``).
     Returns:
-        ``(positions (T, 3) m, directions (T, 3) unit, goal action name)``. A lying goal's direction
-        is the facing of a body lying on its back along it, ``−direction`` of the object's lie goal
-        (the root frame's forward then points to the feet; measured on toy clips: within 3° of it).
+        ``(positions (T, 3) m, directions (T, 3) unit, actions (T,) int64)``, the actions indices
+        into ``SAMP_ACTIONS``. A lying goal's direction is the facing of a body lying on its back
+        along it, ``−direction`` of the object's lie goal (the root frame's forward then points to
+        the feet; measured on toy clips: within 3° of it). A ``walk_first`` sit or lie clip has a
+        walk goal at the end of its approach walk until the root is within ``WALK_SWITCH_RADIUS``.
     """
     kind = motion.meta.get("kind")
     check_choice(kind, MOTION_KINDS, "motion.meta['kind']")
     T = len(motion)
     origin, heading = root_frame(motion.joints)
     origin, heading = origin.double().numpy(), heading.double().numpy()
+    actions = np.full(T, SAMP_ACTIONS.index(kind), dtype=np.int64)
     if kind == "idle":
-        return np.repeat(origin[:1], T, 0), np.repeat(_forward(heading[:1]), T, 0), "idle"
+        return np.repeat(origin[:1], T, 0), np.repeat(_forward(heading[:1]), T, 0), actions
     if kind in ("walk", "run"):
         positions, directions = _waypoint_goals(origin[:, :2], np.asarray(motion.meta["waypoints"], dtype=np.float64))
-        return positions, directions, kind
+        return positions, directions, actions
     goal = motion.meta["sit_goal" if kind == "sit" else "lie_goal"]
     direction = np.asarray(goal["direction"], dtype=np.float64)
     direction = direction if kind == "sit" else lie_facing(direction)
-    return (np.repeat(np.asarray(goal["position"], dtype=np.float64)[None], T, 0),
-            np.repeat(direction[None], T, 0), kind)
+    positions = np.repeat(np.asarray(goal["position"], dtype=np.float64)[None], T, 0)
+    directions = np.repeat(direction[None], T, 0)
+    walking = np.flatnonzero(np.asarray(motion.actions) == ACTIONS.index("walk"))  # the approach walk, before the turn
+    if motion.meta.get("walk_first") and len(walking):
+        spot = origin[walking[-1], :2]  # where the approach walk ends
+        leg = spot - origin[0, :2]
+        if np.linalg.norm(leg) > 1e-6:
+            # the walk goal holds until the root first comes within the radius of the spot
+            far = np.logical_and.accumulate(np.linalg.norm(origin[:, :2] - spot, axis=1) >= WALK_SWITCH_RADIUS)
+            positions[far] = np.r_[spot, 0.0]
+            directions[far] = np.r_[leg / np.linalg.norm(leg), 0.0]
+            actions[far] = SAMP_ACTIONS.index("walk")
+    return positions, directions, actions
 
 
 def lie_facing(direction) -> np.ndarray:
@@ -243,7 +272,7 @@ def voxels_in_root_frame(centres: torch.Tensor, occupancy: torch.Tensor, roots: 
 # ----------------------------------------------------------------------------- clips and the data set
 
 
-def make_clip(kind: str, seed: int, obj: Optional[ToyObject] = None):
+def make_clip(kind: str, seed: int, obj: Optional[ToyObject] = None, walk_first_share: float = 0.0):
     """One toy clip of a SAMP action: walks and runs start facing a random direction; sit and lie
     clips end seated or lying (no standing up).
 
@@ -251,6 +280,7 @@ def make_clip(kind: str, seed: int, obj: Optional[ToyObject] = None):
         kind: one of ``MOTION_KINDS``.
         seed: int.
         obj: the object for "sit" / "lie" (default: one of ``OBJECT_CATEGORIES[kind]`` from ``seed``).
+        walk_first_share: the chance that a sit or lie clip is ``walk_first`` (``meta["walk_first"]``).
     Returns:
         ``(motion, obj)`` with ``obj`` None for locomotion.
     """
@@ -280,6 +310,7 @@ def make_clip(kind: str, seed: int, obj: Optional[ToyObject] = None):
                           math.sin(angle) * front[0] + math.cos(angle) * front[1]])
     start = centre + rng.uniform(2.0, 4.5) * direction
     motion = mocap.generate_clip(kind, seed=int(rng.integers(2**31)), obj=obj, stand_up=False, start_position=start)
+    motion.meta["walk_first"] = bool(rng.uniform() < walk_first_share)
     return motion, obj
 
 
@@ -289,8 +320,9 @@ def clip_states(motion: Motion) -> tuple[torch.Tensor, torch.Tensor]:
     Returns:
         ``(states (T, 437), roots (T, 3))``, float32; roots are ``(x, y, heading)``.
     """
-    positions, directions, goal_action = clip_goals(motion)
-    _, flat = samp_pose_state(motion, positions, directions, goal_action=goal_action)
+    positions, directions, goal_actions = clip_goals(motion)
+    goal_actions = [SAMP_ACTIONS[a] for a in goal_actions]
+    _, flat = samp_pose_state(motion, positions, directions, goal_action=goal_actions)
     origin, heading = root_frame(motion.joints)
     return flat.float(), torch.cat([origin[:, :2], heading[:, None]], dim=-1).float()
 
@@ -304,6 +336,7 @@ class MotionData:
         roots: ``(N, 3)`` ``(x, y, heading)`` of each frame's root.
         goal_positions, goal_directions: ``(N, 3)`` the goal of each frame (world, m / unit).
         actions: ``(N,)`` int64 SAMP action of each frame (``SAMP_ACTIONS``).
+        goal_actions: ``(N,)`` int64 the action of each frame's goal (``SAMP_ACTIONS``).
         clip_start: ``(n_clips + 1,)`` int64 first frame of each clip (and ``N``).
         clip_kind: ``(n_clips,)`` int64 kind of each clip (index into ``MOTION_KINDS``).
         clip_object: ``(n_clips,)`` int64 row of ``voxel_centres`` / ``voxel_occupancy``, −1 for none.
@@ -317,6 +350,7 @@ class MotionData:
     goal_positions: torch.Tensor
     goal_directions: torch.Tensor
     actions: torch.Tensor
+    goal_actions: torch.Tensor
     clip_start: torch.Tensor
     clip_kind: torch.Tensor
     clip_object: torch.Tensor
@@ -385,16 +419,17 @@ def motion_data(config: MotionDataConfig, split: str = "train") -> MotionData:
     check_choice(split, _SPLITS, "split")
 
     def build():
-        states, roots, goal_p, goal_d, actions, starts, kinds, objects = [], [], [], [], [], [0], [], []
+        states, roots, goal_p, goal_d, goal_a, actions, starts, kinds, objects = [], [], [], [], [], [], [0], [], []
         centres, occupancy = [], []
         for kind, seed in _clip_list(config, split):
-            motion, obj = make_clip(kind, seed)
-            positions, directions, goal_action = clip_goals(motion)
+            motion, obj = make_clip(kind, seed, walk_first_share=config.walk_first_share)
+            positions, directions, goal_actions = clip_goals(motion)
             flat, root = clip_states(motion)
             states.append(flat)
             roots.append(root)
             goal_p.append(torch.as_tensor(positions, dtype=torch.float32))
             goal_d.append(torch.as_tensor(directions, dtype=torch.float32))
+            goal_a.append(torch.as_tensor(goal_actions))
             actions.append(torch.as_tensor(samp_action_ids(motion.actions)))
             starts.append(starts[-1] + len(motion))
             kinds.append(MOTION_KINDS.index(kind))
@@ -408,7 +443,7 @@ def motion_data(config: MotionDataConfig, split: str = "train") -> MotionData:
         if not centres:
             centres, occupancy = [torch.zeros(512, 3)], [torch.zeros(512)]
         return {"states": torch.cat(states), "roots": torch.cat(roots), "goal_positions": torch.cat(goal_p),
-                "goal_directions": torch.cat(goal_d), "actions": torch.cat(actions),
+                "goal_directions": torch.cat(goal_d), "actions": torch.cat(actions), "goal_actions": torch.cat(goal_a),
                 "clip_start": torch.as_tensor(starts, dtype=torch.int64),
                 "clip_kind": torch.as_tensor(kinds, dtype=torch.int64),
                 "clip_object": torch.as_tensor(objects, dtype=torch.int64),

@@ -209,7 +209,7 @@ def train_motion_model(data: MotionData, config: MotionNetConfig, device="cpu",
     sample_frames = torch.randperm(len(data), generator=torch.Generator().manual_seed(config.seed))[:4096]
     model.set_statistics(data.states, targets[1:], data.voxels(sample_frames))
     mask = goal_feature_mask()
-    goal_actions = data.clip_kind[data.frame_clip()]  # MOTION_KINDS is SAMP_ACTIONS: the kind is the goal's action
+    goal_actions = data.goal_actions
     steps_per_epoch = math.ceil(len(starts) / config.batch_size)
     steps = config.epochs * steps_per_epoch
     latent = model.latent

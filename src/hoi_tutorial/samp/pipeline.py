@@ -31,10 +31,11 @@ import torch
 
 from .._validate import check_choice
 from ..world.primitives import union_sdf
-from .core import MotionModel
+from .core import GoalNetCVAE, MotionModel
 from .evaluation import measure_goal_runs
+from .goalnet import sample_goals
 from .motion_data import object_voxel_cells
-from .planning import plan_path
+from .planning import check_room_point, plan_path, reaches
 from .runtime import GoalSequence, Rollout, rollout, standing_state
 
 __all__ = ["RoomTask", "room_tasks", "goals_along_path", "RoomRunResults", "penetrating_frames", "run_room_tasks"]
@@ -48,42 +49,70 @@ class RoomTask:
         room: a ``world.scenes.Room``.
         goal_position, goal_direction: ``(3,)`` a sitting goal on ``room.target`` (world).
         start_root: ``(3,)`` ``(x, y, heading)``.
+        room_index: the room's position in the list given to :func:`room_tasks`.
     """
 
     room: object
     goal_position: np.ndarray
     goal_direction: np.ndarray
     start_root: np.ndarray
+    room_index: int = 0
 
 
-def room_tasks(rooms: Sequence, seed: int = 0, min_distance: float = 2.0) -> list[RoomTask]:
-    """One task per room: the target's first sitting goal that has a standing spot in front of it,
-    and a start drawn among the room's free cells that reach it, at least ``min_distance`` metres
-    from the goal, facing anywhere.
+def room_tasks(rooms: Sequence, seed: int = 0, min_distance: float = 2.0, goalnet: Optional[GoalNetCVAE] = None,
+               n_proposals: int = 32, facing_spread: float = math.radians(30.0),
+               skip_missing: bool = False) -> list[RoomTask]:
+    """One task per room: a sitting goal on the target that has a standing spot in front of it, and
+    a start drawn among the room's free cells that reach it, at least ``min_distance`` metres from the
+    goal, facing the goal within ``facing_spread`` radians (as the toy captures start, and as
+    ``evaluation.goal_tasks``; SAMP does not state its start headings).
 
+    Args:
+        rooms: ``world.scenes.Room`` objects.
+        seed: draws the starts (and GoalNet's latents).
+        min_distance: metres between the start and the goal, at least.
+        goalnet: a trained GoalNet (``goalnet.trained_goalnet(...).model``): the goal is the first of
+            ``n_proposals`` GoalNet samples on the target with a standing spot (SAMP Fig. 2: GoalNet
+            proposes, the planner walks there). ``None``: the target's own labelled sitting goals.
+        n_proposals: GoalNet samples tried per room.
+        facing_spread: the start heading's largest angle from the direction to the goal (radians).
+        skip_missing: leave out a room with no goal whose standing spot a start reaches (the task's ``room_index``
+            says which room each task is in) instead of raising.
     Raises:
-        ValueError: a room whose target has no sitting goal with a standing spot, or no start far
-            enough from it.
+        ValueError: a room whose target has no sitting goal with a standing spot (unless
+            ``skip_missing``), or no start far enough from it.
     """
     tasks = []
     for k, room in enumerate(rooms):
         rng = np.random.default_rng([int(seed), 4411, k])
-        positions, directions = room.target.sit_goals
+        if goalnet is None:
+            positions, directions = room.target.sit_goals
+            source = "sitting goal"
+        else:
+            generator = torch.Generator().manual_seed(int(rng.integers(2**31)))
+            positions, directions = sample_goals(goalnet, room.target, n_proposals, generator=generator)
+            source = f"GoalNet goal of {n_proposals}"
+        starts = room.start_positions(64, seed=rng)
+        start = None
         for position, direction in zip(positions, directions):
             try:
-                room.standing_point(position, direction)
+                spot = room.standing_point(position, direction)
             except ValueError:
                 continue
-            break
-        else:
-            raise ValueError(f"rooms[{k}]: the target {room.target.category} has no sitting goal with a standing spot")
-        starts = room.start_positions(64, seed=rng)
-        far = starts[np.linalg.norm(starts - np.asarray(position)[:2], axis=1) >= min_distance]
-        if len(far) == 0:
-            raise ValueError(f"rooms[{k}]: no start {min_distance} m or more from the goal among 64 drawn")
-        start = far[0]
+            far = starts[np.linalg.norm(starts - np.asarray(position)[:2], axis=1) >= min_distance]
+            ok = np.flatnonzero(reaches(room, far, spot))
+            if len(ok):
+                start = far[ok[0]]
+                break
+        if start is None:
+            if skip_missing:
+                continue
+            raise ValueError(f"rooms[{k}]: the target {room.target.category} has no {source} with a standing spot "
+                             f"reachable from a start {min_distance} m or more away (64 starts drawn)")
+        to_goal = np.asarray(position)[:2] - start
+        heading = math.atan2(-to_goal[0], to_goal[1]) + rng.uniform(-facing_spread, facing_spread)
         tasks.append(RoomTask(room, np.asarray(position, dtype=np.float64), np.asarray(direction, dtype=np.float64),
-                              np.array([start[0], start[1], rng.uniform(-math.pi, math.pi)])))
+                              np.array([start[0], start[1], heading]), k))
     return tasks
 
 
@@ -96,6 +125,7 @@ def goals_along_path(task: RoomTask, action: str = "sit", planning: bool = True,
         of the A* path (None without planning).
     """
     check_choice(action, ("sit",), "action")
+    check_room_point(task.room, np.asarray(task.start_root, dtype=np.float64)[:2], "start")
     final = (task.goal_position, task.goal_direction, action, 0.0)
     if not planning:
         return [final], None
@@ -172,7 +202,8 @@ def run_room_tasks(model: MotionModel, tasks: Sequence[RoomTask], seconds: float
     joints = out.joints().double().numpy()
     pen = []
     for b, task in enumerate(tasks):
-        # penetration while navigating: up to the sit (or the whole run when it never sat)
+        # penetration while navigating: up to the sit (or the whole run when it never sat); a body seated
+        # on a target that stands against a wall would otherwise count every seated frame
         end = int(round(times[b] * fps)) if math.isfinite(times[b]) else n_frames
         pen.append(penetrating_frames(task.room, joints[b, :max(end, 1)]).mean())
     return RoomRunResults(times, pe, re, reached, np.asarray(pen), out, [w for _, w in plans], reach_radius)

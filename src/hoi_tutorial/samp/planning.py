@@ -19,7 +19,7 @@ At toy scale the walkable area is the room's grid inflated by the body radius
 - :func:`draw_path`: the room from above with the path and its waypoints.
 
 Grid convention (``hoi_tutorial.world.scenes``): cell ``(i, j)`` is row ``i`` along +y, column ``j``
-along +x. This module imports only numpy (matplotlib inside :func:`draw_path`, networkx inside
+along +x. This module imports numpy and scipy.ndimage (matplotlib inside :func:`draw_path`, networkx inside
 :func:`networkx_grid_graph`).
 """
 from __future__ import annotations
@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
+from scipy import ndimage
 
 __all__ = [
     "astar",
@@ -41,7 +42,9 @@ __all__ = [
     "grid_distance",
     "networkx_grid_graph",
     "approach_point",
+    "check_room_point",
     "plan_path",
+    "reaches",
     "draw_path",
 ]
 
@@ -282,7 +285,9 @@ class PlannedPath:
     radius: float
 
 
-def _check_point(room, xy, name: str) -> np.ndarray:
+def check_room_point(room, xy, name: str) -> np.ndarray:
+    """``xy`` as a ``(2,)`` float array, or a ValueError naming ``name`` when it is not a finite floor
+    point inside ``room`` (``[0, size_x] × [0, size_y]`` metres)."""
     lx, ly = (float(v) for v in np.asarray(room.size).reshape(2))
     extent = f"[0, {lx}] × [0, {ly}] m"
     try:
@@ -367,6 +372,32 @@ def approach_point(room, goal_position, goal_direction, *, radius: Optional[floa
     return room.standing_point(goal_position, goal_direction, radius, max_distance)
 
 
+def reaches(room, starts, goal, *, radius: Optional[float] = None) -> np.ndarray:
+    """``(n,)`` bool: which of ``starts (n, 2)`` (xy metres) :func:`plan_path` can join to ``goal``.
+
+    One labelling of the 8-connected free cells (``scipy.ndimage.label``) answers for every start;
+    a start or goal inside an inflated obstacle or outside the room reaches nothing.
+    """
+    radius = float(room.body_radius if radius is None else radius)
+    blocked = np.asarray(room.inflated_occupancy(radius), dtype=bool)
+    components, _ = ndimage.label(~blocked, structure=np.ones((3, 3), dtype=bool))
+
+    def cell_of(xy, name):
+        try:
+            return _point_cell(room, blocked, check_room_point(room, xy, name), name, radius)
+        except ValueError:
+            return None
+
+    goal_cell = cell_of(goal, "goal")
+    out = np.zeros(len(starts), dtype=bool)
+    if goal_cell is None:
+        return out
+    for i, xy in enumerate(np.asarray(starts, dtype=np.float64).reshape(-1, 2)):
+        cell = cell_of(xy, "start")
+        out[i] = cell is not None and components[cell] == components[goal_cell]
+    return out
+
+
 def plan_path(room, start, goal, *, radius: Optional[float] = None, shortcut: bool = True) -> PlannedPath:
     """Plan SAMP's obstacle-free walk from ``start`` to ``goal`` in a room (§3.3, Appendix E).
 
@@ -396,8 +427,8 @@ def plan_path(room, start, goal, *, radius: Optional[float] = None, shortcut: bo
     radius = float(room.body_radius if radius is None else radius)
     if not (math.isfinite(radius) and radius >= 0.0):
         raise ValueError(f"radius: expected a non-negative number of metres, got {radius}")
-    start = _check_point(room, start, "start")
-    goal = _check_point(room, goal, "goal")
+    start = check_room_point(room, start, "start")
+    goal = check_room_point(room, goal, "goal")
     blocked = np.asarray(room.inflated_occupancy(radius), dtype=bool)
     cells = {name: _point_cell(room, blocked, xy, name, radius) for name, xy in (("start", start), ("goal", goal))}
     try:

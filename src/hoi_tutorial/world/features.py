@@ -442,7 +442,7 @@ def samp_pose_state(
         action_labels: per-frame labels for ``t^a`` (``(T,)`` ids or names, or one name);
             default the motion's own ``actions`` (zeros when it has none).
         goal_action: the action to perform at the goal, a name from ``SAMP_ACTIONS`` or
-            ``ACTIONS``, or ``None``.
+            ``ACTIONS``, ``(T,)`` per-frame labels (a goal that changes along the clip), or ``None``.
     Returns:
         ``(parts, flat)``: a dict of ``(T, n)`` tensors named as ``SAMP_STATE_LAYOUT`` and the
         ``(T, 437)`` concatenation.
@@ -493,7 +493,11 @@ def samp_pose_state(
         parts["goal_actions"] = torch.zeros(T, _NA * _NS, dtype=dtype)
     else:
         gid = samp_action_ids(goal_action)
-        parts["goal_actions"] = _one_hot(np.repeat(gid, T * _NS), dtype).reshape(T, -1)
+        if gid.shape[0] == 1:
+            gid = np.repeat(gid, T)
+        if gid.shape[0] != T:
+            raise ValueError(f"goal_action: expected one name or {T} per-frame labels, got {gid.shape[0]}")
+        parts["goal_actions"] = _one_hot(np.repeat(gid, _NS), dtype).reshape(T, -1)
     if motion.contacts is None:
         parts["contacts"] = torch.zeros(T, len(CONTACT_JOINTS), dtype=dtype)
     else:
