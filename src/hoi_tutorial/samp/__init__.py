@@ -5,6 +5,7 @@ Modules, in the order of the paper:
 - ``core``: the networks: the interaction encoder over 8×8×8×4 object voxels, GoalNet's cVAE, MotionNet's
   cVAE with its mixture-of-experts decoder, and the MLP and MoE baselines (§3.1–3.2, Supp. C).
 - ``motion_data``: toy clips of the five actions as states (Eq. 1), roots, goals and voxels (§4.1).
+- ``augmentation``: a clip moved onto another object with its contacts kept, by projection and IK (§4.2, Supp. F).
 - ``motionnet``: MotionNet's training with scheduled sampling (Eq. 3, Eq. 5; Supp. D, G ablations).
 - ``runtime``: the decoder stepping characters from goal to goal (§3, §3.3).
 - ``evaluation``: goal tasks on unseen objects, execution time and precision (§5.2, Tables 2–3).
@@ -14,5 +15,5 @@ Modules, in the order of the paper:
   where the path changes direction that the character walks to in turn (§3.3, Appendix E).
 - ``paper_numbers``: the paper's reported numbers, transcribed, for the tables set beside ours.
 
-The data augmentation of §4.2 and the NSM-like comparison of Table 5 are still to come.
+The NSM-like comparison of Table 5 is still to come, and the augmentation is not yet used in training.
 """
