@@ -16,6 +16,7 @@ from hoi_tutorial.infra import SCALES, artifact_key, scaled_config
 from hoi_tutorial.nifty import (baselines, data, evaluation, interaction_field, motion_model, motion_prior, rollout,
                                 toy2d, trajectories)
 from hoi_tutorial.samp import goalnet, motion_data, motionnet
+from hoi_tutorial.choice import fields
 
 ACTIONS = ("sit", "lift")
 
@@ -36,6 +37,7 @@ FACTORIES = [
     (goalnet, "goalnet_config", goalnet.GoalNetConfig, False),
     (motion_data, "motion_data_config", motion_data.MotionDataConfig, False),
     (motionnet, "motionnet_config", motionnet.MotionNetConfig, False),
+    (fields, "field_config", fields.FieldConfig, False),
 ]
 
 CASES = [(module, name, cls, scale, action)

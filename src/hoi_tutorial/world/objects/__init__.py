@@ -29,7 +29,7 @@ from .categories import (  # noqa: F401 (HANDLED, SMALL)
     SUPPORTING,
 )
 from .sizes import CATEGORY_SIZES, SizeRange, size_table
-from .toy_object import ToyObject, as_rng, make_object  # noqa: F401 (as_rng)
+from .toy_object import ToyObject, as_rng, make_object, object_from_description  # noqa: F401 (as_rng)
 
 __all__ = [
     "CATEGORIES",
@@ -46,4 +46,5 @@ __all__ = [
     "size_table",
     "ToyObject",
     "make_object",
+    "object_from_description",
 ]

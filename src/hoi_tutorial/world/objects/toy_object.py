@@ -25,7 +25,7 @@ from .builders import BUILDERS, DERIVED_PARAMS, recentre
 from .categories import CATEGORIES, GRASPABLE, HANDLED, LIFTABLE, LYING, SITTABLE, SMALL, SUPPORTING
 from .sizes import CATEGORY_SIZES
 
-__all__ = ["as_rng", "ToyObject", "make_object"]
+__all__ = ["as_rng", "ToyObject", "make_object", "object_from_description"]
 
 
 # ----------------------------------------------------------------------------- the object
@@ -398,3 +398,16 @@ def make_object(category: str, seed=0, *, size_scale=None, **overrides) -> ToyOb
     _check_override_names(category, overrides)
     params.update(overrides)
     return _build(category, params)
+
+
+def object_from_description(description: dict) -> ToyObject:
+    """Rebuild the object a clip recorded (``{"category", "params", "pose"}``, as toy-mocap clips
+    store their object and support in ``motion.meta``): same category, sizes and world pose."""
+    if not isinstance(description, dict) or not {"category", "params", "pose"} <= set(description):
+        raise ValueError("description: expected a dict with 'category', 'params' and 'pose' (a clip's meta['object'])")
+    params = {k: v for k, v in description["params"].items() if k not in DERIVED_PARAMS}
+    check_choice(description["category"], CATEGORIES, "description['category']")
+    pose = np.asarray(description["pose"], dtype=np.float64)
+    if pose.shape != (4, 4):
+        raise ValueError(f"description['pose']: expected a (4, 4) matrix, got shape {pose.shape}")
+    return _build(description["category"], params).with_pose(pose)
