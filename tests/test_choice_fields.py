@@ -272,8 +272,8 @@ def test_clear_errors():
         F.scene_fields(g, sphere(far, 0.05))
     with pytest.raises(ValueError, match="the front"):
         F.fast_marching_distance(np.ones(g.shape), empty, g.spacing)
-    with pytest.raises(ValueError, match="phi: expected an \\(n, n, n\\) grid"):
-        F.fast_marching_distance(np.ones((4, 4)), np.zeros((4, 4), bool), 0.1)
+    with pytest.raises(ValueError, match="phi: expected a 2D or 3D grid"):
+        F.fast_marching_distance(np.ones(4), np.zeros(4, bool), 0.1)
     with pytest.raises(ValueError, match="speed: expected finite positive"):
         F.fast_marching_time(sphere(g.centre, 0.1)(g.points()), np.zeros(g.shape), empty, g.spacing)
     phi = F.time_of_arrival(g, np.stack([g.centre - 0.1, g.centre]), 30.0, empty)
@@ -291,3 +291,20 @@ def test_clear_errors():
         F.scene_fields(g, sphere(g.centre, 0.05), [3.0])
     with pytest.raises(ValueError, match="description: expected a dict"):
         object_from_description({"category": "bottle"})
+
+
+def test_fast_marching_on_a_2d_slice_matches_the_exact_distance():
+    n, dx = 60, 0.01
+    u = (np.arange(n) + 0.5) * dx
+    x, y = np.meshgrid(u, u, indexing="ij")
+    exact = np.hypot(x - 0.31, y - 0.27) - 0.05
+    d = F.fast_marching_distance(exact, np.zeros((n, n), bool), dx)
+    outside = exact > 0
+    assert np.abs(d[outside] - exact[outside]).max() < 0.5 * dx
+
+
+def test_a_goal_walled_in_by_an_obstacle_is_a_clear_error():
+    g = grid(n=16, spacing=0.05)
+    blocked = np.linalg.norm(g.points() - g.centre, axis=-1) < 0.2
+    with pytest.raises(ValueError, match="goal: expected a free grid cell"):
+        F.time_of_arrival(g, np.stack([g.centre + 0.3, g.centre]), 30.0, blocked)

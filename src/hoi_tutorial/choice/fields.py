@@ -33,8 +33,10 @@ Choices the paper does not state, ours:
 - ``σ = 5 cm`` for the Gaussian PDF, normalised to peak 1 (the paper sets its peak to the hand's
   speed); a floor of ``10⁻³`` of the peak far from the demonstration, and a hand speed of at least
   10 cm/s (the wrist stops at the contact, where the front would otherwise stall).
-- The goal is a small ball (radius 1.5 cells) opened in the walls around ``x_goal`` — the wrist
-  touches the target, so the goal lies on a wall; inside the ball ``φ = |x − x_goal| / ‖v(x_goal)‖``.
+- The front starts from a small ball (radius 1.5 cells) around ``x_goal``, whose free cells take
+  ``φ = |x − x_goal| / v̄`` with ``v̄`` the demonstration's mean speed inside the ball (the wrist
+  slows to a stop at the contact). The target is a wall only where a cell centre lies inside it
+  (the wrist ends on its surface; a target widened by half a cell would wall off the approach).
 
 Scaling (paper → toy): 2.5 cm cells in an (80 cm)³ cube (32³, §8.1) → 5 cm cells in the same
 cube (16³) at ``toy``; ``small`` and ``paper`` use 2.5 cm.
@@ -88,7 +90,7 @@ class FieldConfig:
         sigma: ``σ`` of Eq. 5's Gaussian PDF, metres (ours).
         speed_floor: smallest PDF value far from the demonstration, a fraction of its peak (ours).
         min_hand_speed: smallest ``‖v(x_n)‖`` used in Eq. 5, m/s (ours).
-        goal_radius: radius of the opened goal ball, in cells (ours).
+        goal_radius: radius of the ball around the goal the front starts from, in cells (ours).
         order: fast-marching order, 1 or 2 (2 falls back to 1 where scikit-fmm cannot use it).
     """
 
@@ -199,6 +201,10 @@ class FieldGrid:
         """World points (..., 3) → continuous cell indices (..., 3) (cell centres at integers)."""
         return (self.to_local(points) + self.half_extent) / self.spacing - 0.5
 
+    def cell_of(self, points) -> np.ndarray:
+        """World points (..., 3) → indices (..., 3) int of the cells that hold them (clipped to the grid)."""
+        return np.clip(np.round(self.to_index(points)).astype(np.int64), 0, self.n - 1)
+
     def sample(self, values, points) -> np.ndarray:
         """Trilinear interpolation of a grid field at world points.
 
@@ -261,7 +267,8 @@ def fast_marching_distance(phi, blocked, spacing: float, order: int = 2) -> np.n
     """Distance (n, n, n) metres from the zero level set of ``phi`` through the free cells (Eq. 2).
 
     Args:
-        phi: (n, n, n) level-set function, negative on the source side of the front.
+        phi: (n, n, n) level-set function, negative on the source side of the front (a 2D
+            ``(H, W)`` grid works the same way).
         blocked: (n, n, n) bool walls (``‖∇d‖ = ∞``).
         spacing: cell side, metres.
         order: 2, falling back to 1 where scikit-fmm cannot use second order.
@@ -299,8 +306,8 @@ def fast_marching_time(phi, speed, blocked, spacing: float, order: int = 2) -> n
 
 def _check_pair(phi, blocked):
     phi = np.asarray(phi, dtype=np.float64)
-    if phi.ndim != 3:
-        raise ValueError(f"phi: expected an (n, n, n) grid, got shape {phi.shape}")
+    if phi.ndim not in (2, 3):
+        raise ValueError(f"phi: expected a 2D or 3D grid (the chapters march on 2D slices too), got shape {phi.shape}")
     if phi.size == 0:
         raise ValueError("phi: expected a non-empty grid")
     blocked = np.asarray(blocked)
@@ -439,7 +446,8 @@ def time_of_arrival(grid: FieldGrid, trajectory, fps: float, blocked, config: Fi
             ``x_goal`` (the first contact when reaching; reverse a leaving segment so that its
             release point comes last).
         fps: frames per second of ``trajectory``.
-        blocked: (n, n, n) bool walls (target and obstacles); a ball around the goal is opened.
+        blocked: (n, n, n) bool walls (target and obstacles); the goal needs a free cell within
+            ``config.goal_radius`` cells.
         goal: (3,) metres, the goal (default ``trajectory[-1]``).
     Returns:
         (n, n, n) seconds; 0 at the goal, ``inf`` in walls and unreachable cells.
@@ -457,14 +465,15 @@ def time_of_arrival(grid: FieldGrid, trajectory, fps: float, blocked, config: Fi
     speed, _ = demonstration_speed(grid, trajectory, fps, config)
     radius = config.goal_radius * grid.spacing
     to_goal = np.linalg.norm(grid.points() - goal, axis=-1)
-    ball = to_goal < radius
-    if not ball.any():  # cannot happen for radius >= sqrt(3)/2 cells; kept for custom configs
-        ball[tuple(np.round(grid.to_index(goal)).astype(int))] = True
-    walls = blocked & ~ball
+    ball = (to_goal < radius) & ~blocked
+    if not ball.any():
+        raise ValueError(f"goal: expected a free grid cell within {config.goal_radius} cells of the goal "
+                         f"{goal.round(3).tolist()}; it is walled in (inside an obstacle?)")
+    walls = blocked
     goal_speed = _speed_near_goal(trajectory, goal, radius, fps, config.min_hand_speed)
     t = fast_marching_time(to_goal - radius, speed, walls, grid.spacing, config.order)
     # the front leaves the ball's surface at time radius / v̄; inside the ball, straight to the goal
-    return np.where(ball, to_goal / goal_speed, t + radius / goal_speed)
+    return np.where(ball, to_goal / goal_speed, np.where(blocked, np.inf, t + radius / goal_speed))
 
 
 def _speed_near_goal(trajectory, goal, radius, fps, min_speed) -> float:
@@ -583,7 +592,7 @@ def descend(grid: FieldGrid, time, start, *, max_steps: Optional[int] = None) ->
     check_shape(start, (3,), "start")
     if not grid.contains(start):
         raise ValueError(f"start: expected a point inside the grid, got {start.round(3).tolist()}")
-    cell = np.clip(np.round(grid.to_index(start)).astype(int), 0, grid.n - 1)
+    cell = grid.cell_of(start)
     if not np.isfinite(time[tuple(cell)]):
         raise ValueError(f"start: its cell {cell.tolist()} is a wall or unreachable (time = inf)")
     u = grid.local_coordinates()
