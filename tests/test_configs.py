@@ -16,7 +16,7 @@ from hoi_tutorial.infra import SCALES, artifact_key, scaled_config
 from hoi_tutorial.nifty import (baselines, data, evaluation, interaction_field, motion_model, motion_prior, rollout,
                                 toy2d, trajectories)
 from hoi_tutorial.samp import goalnet, motion_data, motionnet
-from hoi_tutorial.choice import fields
+from hoi_tutorial.choice import data as choice_data, fields, planner
 
 ACTIONS = ("sit", "lift")
 
@@ -38,6 +38,8 @@ FACTORIES = [
     (motion_data, "motion_data_config", motion_data.MotionDataConfig, False),
     (motionnet, "motionnet_config", motionnet.MotionNetConfig, False),
     (fields, "field_config", fields.FieldConfig, False),
+    (choice_data, "planner_data_config", choice_data.PlannerDataConfig, False),
+    (planner, "planner_config", planner.PlannerConfig, False),
 ]
 
 CASES = [(module, name, cls, scale, action)

@@ -5,10 +5,15 @@ Modules, in the order of the paper:
 - ``fields``: the object-centric grid and the three fields of Eq. 1 — target and obstacle
   distances (Eqs. 2–4) and the time of arrival of a demonstrated wrist trajectory (Eqs. 5–6) — by
   fast marching (scikit-fmm), and the descent along ``−∇φ`` that turns a time field into a path.
+- ``data``: the planner's interactions — toy-mocap reaches onto items on shelves and tables, with
+  clutter, their fields and conditions ``c`` (§4.2, §7, §8.1).
+- ``core``: the auto-decoder's network ``f_θ(x, z; c)`` (§4.2, Fig. 3).
+- ``planner``: training (Eqs. 7–8), the run-time latent fit (Eq. 9), the start point (Eq. 11), the
+  integration (Eq. 10) and the orientation transfer (Eq. 12).
 
-The implicit trajectory planner (§4.2), its baselines and Table 3, and the controller half of the
-paper (§5–6, Table 4) are still to come.
+The planner's baselines and Table 3, and the controller half of the paper (§5–6, Table 4) are still
+to come.
 """
-from . import fields
+from . import core, data, fields, planner
 
-__all__ = ["fields"]
+__all__ = ["core", "data", "fields", "planner"]

@@ -28,8 +28,9 @@ Choices the paper does not state, ours:
   wall that the 6-neighbour fast marching cannot leak through, and the front starts on the offset
   surface ``sdf = h``; ``h`` is added back, which is exact in free space (the distance to the level
   set ``{d = h}`` of a distance function is ``d − h``).
-- ``ε = 2.5 cm`` at every scale (the paper's grid spacing), so the fields have the same range at
-  toy and paper resolution.
+- ``ε = 2.5 cm`` for the distances at every scale (the paper's grid spacing), so the fields have the
+  same range at toy and paper resolution, and ``ε = 0.1 s`` for the time (about three frames: the last
+  stretch into the contact is flat in ``D_toa``).
 - ``σ = 5 cm`` for the Gaussian PDF, normalised to peak 1 (the paper sets its peak to the hand's
   speed); a floor of ``10⁻³`` of the peak far from the demonstration, and a hand speed of at least
   10 cm/s (the wrist stops at the contact, where the front would otherwise stall).
@@ -86,7 +87,8 @@ class FieldConfig:
     Attributes:
         extent: side of the object-centric cube, metres (CHOICE §8.1: 80 cm).
         spacing: grid cell side, metres (CHOICE §8.1: 2.5 cm; toy 5 cm).
-        epsilon: ``ε`` of Eqs. 3, 4 and 6, metres for distances and seconds for times (ours).
+        epsilon: ``ε`` of Eqs. 3 and 4, metres (ours).
+        time_epsilon: ``ε`` of Eq. 6, seconds (ours).
         sigma: ``σ`` of Eq. 5's Gaussian PDF, metres (ours).
         speed_floor: smallest PDF value far from the demonstration, a fraction of its peak (ours).
         min_hand_speed: smallest ``‖v(x_n)‖`` used in Eq. 5, m/s (ours).
@@ -97,6 +99,7 @@ class FieldConfig:
     extent: float = 0.8
     spacing: float = 0.05
     epsilon: float = 0.025
+    time_epsilon: float = 0.1
     sigma: float = 0.05
     speed_floor: float = 1e-3
     min_hand_speed: float = 0.1
@@ -104,7 +107,7 @@ class FieldConfig:
     order: int = 2
 
     def __post_init__(self):
-        for name in ("extent", "spacing", "epsilon", "sigma", "speed_floor", "min_hand_speed", "goal_radius"):
+        for name in ("extent", "spacing", "epsilon", "time_epsilon", "sigma", "speed_floor", "min_hand_speed", "goal_radius"):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or isinstance(value, bool) or not value > 0:
                 raise ValueError(f"{name}: expected a positive number, got {value!r}")
@@ -522,6 +525,11 @@ class SceneFields:
         """(n, n, n) bool: the walls of Eq. 5 (:func:`scene_fields`)."""
         return _arrival_walls(self.grid, self.target_sdf, self.obstacle_sdf)
 
+    @property
+    def epsilons(self) -> np.ndarray:
+        """(3,) the ``ε`` of ``(D_t, D_o, D_toa)``: each field times its ``ε`` lies in [0, 1]."""
+        return np.array([self.config.epsilon, self.config.epsilon, self.config.time_epsilon])
+
     def stacked(self) -> np.ndarray:
         """(n, n, n, 3) ``(D_t, D_o, D_toa)`` — Eq. 1's ``D(x)`` per cell (needs a demonstration)."""
         if self.D_toa is None:
@@ -560,7 +568,7 @@ def scene_fields(grid: FieldGrid, target, obstacles: Sequence = (), trajectory=N
     return SceneFields(
         grid=grid, target_sdf=target_sdf, obstacle_sdf=obstacle_sdf, d_target=d_t, d_obstacle=d_o, time=time,
         D_t=inverse_distance(d_t, config.epsilon), D_o=inverse_distance(d_o, config.epsilon),
-        D_toa=None if time is None else inverse_distance(time, config.epsilon), config=config,
+        D_toa=None if time is None else inverse_distance(time, config.time_epsilon), config=config,
     )
 
 
