@@ -6,7 +6,7 @@ import torch
 from torch import nn
 
 from hoi_tutorial.choice import data, fields, planner
-from hoi_tutorial.choice.core import FieldDecoder
+from hoi_tutorial.choice.core import FieldDecoder, channel_values
 
 
 @pytest.fixture(scope="module")
@@ -146,9 +146,12 @@ def test_decoder_shapes_skip_and_errors():
     assert FieldDecoder(latent=8, channels=("t", "toa")).out.out_features == 2
     with pytest.raises(ValueError, match="channels"):
         FieldDecoder(latent=8, channels=("toa", "t"))
+    # INTP-2Ch-D_o' (§8.2.3): one channel, the inverse distance to the nearest of target and obstacles
+    D = np.array([[5.0, 2.0, 0.5], [0.0, 40.0, 0.0], [40.0, 1.0, 3.0]])
+    np.testing.assert_allclose(channel_values(D, ("o'", "toa")), [[5.0, 0.5], [40.0, 0.0], [40.0, 3.0]])
     with pytest.raises(ValueError, match="x: expected shape"):
         dec(torch.zeros(5, 2), torch.zeros(8), torch.zeros(4))
-    with pytest.raises(ValueError, match="channels: expected 'toa'"):
+    with pytest.raises(ValueError, match="channels: expected one of"):
         planner.planner_config(channels=("t", "o"))
 
 

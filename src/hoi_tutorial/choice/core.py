@@ -3,8 +3,10 @@
 ``FieldDecoder`` is ``f_θ(x, z; c) → (D_t, D_o, D_toa)``: DeepSDF's decoder ({cite}`park2019deepsdf`,
 "an auto-decoder structure") reduced as CHOICE §8.1 says — an MLP of 6 layers of 256 with the input
 concatenated again at the 4th — taking the query position ``x`` (grid frame, metres), the scene's
-latent code ``z`` and the condition ``c ∈ R⁴``. A channel subset gives the 2-channel ablations of
-§8.2.3 (``("t", "toa")`` is INTP-2Ch-D_t, ``("o", "toa")`` INTP-2Ch-D_o').
+latent code ``z`` and the condition ``c ∈ R⁴``. Other channel sets give the 2-channel ablations of
+§8.2.3: ``("t", "toa")`` is INTP-2Ch-D_t; ``("o'", "toa")`` is INTP-2Ch-D_o', where ``D_t`` and ``D_o``
+are merged into one channel ``D_o'``, the inverse distance to the nearest surface, target or obstacle
+(``max(D_t, D_o)``, :func:`channel_values`).
 
 Ours, not stated: ReLU (DeepSDF's), no weight norm and no dropout (DeepSDF has both; the toy data is
 small and clean), positions divided by the grid's half extent, field values multiplied by ``ε`` so that
@@ -13,13 +15,26 @@ they lie in ``[0, 1]`` (``1/max(d, ε)`` is at most ``1/ε``).
 from __future__ import annotations
 
 import torch
+import numpy as np
 from torch import nn
 
 from .._validate import check_shape
 
-__all__ = ["CHANNELS", "FieldDecoder"]
+__all__ = ["CHANNELS", "CHANNEL_SETS", "channel_values", "FieldDecoder"]
 
-CHANNELS = ("t", "o", "toa")  # D_t, D_o, D_toa, the order of Eq. 1
+CHANNELS = ("t", "o", "o'", "toa")  # D_t, D_o, the merged D_o' (§8.2.3), D_toa
+# The planner's channel sets: CHOICE's three fields and the two 2-channel ablations of §8.2.3.
+CHANNEL_SETS = (("t", "o", "toa"), ("t", "toa"), ("o'", "toa"))
+
+
+def channel_values(stacked, channels):
+    """The fields of ``channels`` from Eq. 1's ``(D_t, D_o, D_toa)`` (..., 3) (numpy or torch) → (..., k);
+    ``D_o' = max(D_t, D_o)`` is the inverse distance to the nearest of target and obstacles."""
+    parts = {"t": stacked[..., 0], "o": stacked[..., 1], "toa": stacked[..., 2]}
+    if "o'" in channels:
+        parts["o'"] = (torch.maximum if isinstance(stacked, torch.Tensor) else np.maximum)(parts["t"], parts["o"])
+    stack = torch.stack if isinstance(stacked, torch.Tensor) else np.stack
+    return stack([parts[c] for c in channels], -1)
 
 
 class FieldDecoder(nn.Module):
@@ -31,16 +46,16 @@ class FieldDecoder(nn.Module):
         width: hidden width (CHOICE §8.1: 256).
         layers: hidden layers (CHOICE §8.1: 6).
         skip: the hidden layer whose input is ``[h, x, z, c]`` again (CHOICE §8.1: the 4th; 1-based).
-        channels: the output fields, a subset of ``CHANNELS`` in that order.
+        channels: the output fields, one of ``CHANNEL_SETS``.
         half_extent: positions are divided by this (metres) before the first layer.
     """
 
     def __init__(self, latent: int, condition: int = 4, width: int = 256, layers: int = 6, skip: int = 4,
-                 channels: tuple = CHANNELS, half_extent: float = 0.4):
+                 channels: tuple = CHANNEL_SETS[0], half_extent: float = 0.4):
         super().__init__()
         channels = tuple(channels)
-        if not channels or any(c not in CHANNELS for c in channels) or list(channels) != [c for c in CHANNELS if c in channels]:
-            raise ValueError(f"channels: expected a non-empty subset of {list(CHANNELS)} in that order, got {channels!r}")
+        if channels not in CHANNEL_SETS:
+            raise ValueError(f"channels: expected one of {[list(c) for c in CHANNEL_SETS]}, got {channels!r}")
         if not 1 <= skip <= layers:
             raise ValueError(f"skip: expected a hidden layer in [1, {layers}], got {skip}")
         self.latent, self.condition, self.channels, self.skip = int(latent), int(condition), channels, int(skip)

@@ -44,7 +44,7 @@ from torch import nn
 from .._validate import check_positive_ints, check_shape
 from ..infra import TrainedModel, load_or_build, scaled_config, single_threaded, state_dict_to_cpu, train, trainer_config
 from . import core, data, fields
-from .core import CHANNELS, FieldDecoder
+from .core import CHANNEL_SETS, FieldDecoder, channel_values
 from .data import InteractionSet, PlannerDataConfig
 
 __all__ = [
@@ -69,6 +69,7 @@ __all__ = [
     "transfer_orientation",
     "Plan",
     "plan_trajectory",
+    "plan_each_init",
 ]
 
 
@@ -106,7 +107,7 @@ class PlannerConfig:
     width: int = 96
     layers: int = 6
     skip: int = 4
-    channels: tuple = CHANNELS
+    channels: tuple = CHANNEL_SETS[0]
     code_sigma: float = 0.05
     steps: int = 1500
     batch_size: int = 8
@@ -129,10 +130,9 @@ class PlannerConfig:
     def __post_init__(self):
         check_positive_ints(self, ("latent", "width", "layers", "skip", "steps", "batch_size", "points",
                                    "fit_steps", "fit_points", "inits"))
-        channels = tuple(self.channels)
-        if "toa" not in channels or any(c not in CHANNELS for c in channels) or len(channels) < 2:
-            raise ValueError(f"channels: expected 'toa' and at least one of 't', 'o' (from {list(CHANNELS)}), "
-                             f"got {self.channels!r}")
+        if tuple(self.channels) not in CHANNEL_SETS:
+            raise ValueError(f"channels: expected one of {[list(c) for c in CHANNEL_SETS]} (CHOICE's three fields "
+                             f"and the 2-channel ablations of §8.2.3), got {self.channels!r}")
         for name in ("code_sigma", "fit_lr", "init_std", "prior_radius", "max_time", "lr"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name}: expected a positive number, got {getattr(self, name)!r}")
@@ -166,8 +166,10 @@ class AutoDecoder(nn.Module):
         nn.init.normal_(self.codes.weight, 0.0, init_std)
 
 
-def _channel_index(channels) -> list:
-    return [CHANNELS.index(c) for c in channels]
+def _channel_scales(epsilons, channels) -> np.ndarray:
+    """Each channel's ``ε`` (the distance ε for D_t, D_o and D_o', the time ε for D_toa)."""
+    eps = np.asarray(epsilons, dtype=np.float32)
+    return np.array([eps[2] if c == "toa" else eps[0] for c in channels], dtype=np.float32)
 
 
 def build_auto_decoder(config: PlannerConfig, n_codes: int, epsilons, half_extent: float) -> AutoDecoder:
@@ -179,7 +181,7 @@ def build_auto_decoder(config: PlannerConfig, n_codes: int, epsilons, half_exten
         decoder = FieldDecoder(config.latent, 4, config.width, config.layers, config.skip, tuple(config.channels),
                                half_extent)
         model = AutoDecoder(decoder, n_codes, 1.0 / np.sqrt(config.latent))
-    model.register_buffer("scales", torch.as_tensor(np.asarray(epsilons, dtype=np.float32)[_channel_index(config.channels)]))
+    model.register_buffer("scales", torch.as_tensor(_channel_scales(epsilons, config.channels)))
     return model
 
 
@@ -210,8 +212,7 @@ def train_planner(dataset: InteractionSet, config: PlannerConfig, device="cpu", 
         raise ValueError("dataset: expected an InteractionSet with at least one interaction")
     grid = dataset.interactions[0].grid
     model = build_auto_decoder(config, len(dataset), dataset.epsilons, grid.half_extent)
-    index = _channel_index(config.channels)
-    fields_flat = (dataset.fields.reshape(len(dataset), -1, 3)[..., index] * model.scales).float()
+    fields_flat = (channel_values(dataset.fields.reshape(len(dataset), -1, 3), config.channels) * model.scales).float()
     points = dataset.points.reshape(-1, 3)
     conditions = dataset.conditions
     n_cells = points.shape[0]
@@ -336,6 +337,7 @@ class LatentFit:
         final: (inits,) Eq. 9 over the whole grid after the fit (the best is ``codes[final.argmin()]``).
         seconds: wall-clock time of the optimisation.
         initial: (inits,) Eq. 9 over the whole grid at the initial codes.
+        history: ``{step: (inits, latent) codes}`` for the steps asked for in ``record``.
     """
 
     codes: torch.Tensor
@@ -343,6 +345,7 @@ class LatentFit:
     final: np.ndarray
     seconds: float
     initial: np.ndarray
+    history: dict = field(default_factory=dict)
 
     @property
     def best(self) -> torch.Tensor:
@@ -350,7 +353,8 @@ class LatentFit:
 
 
 def fit_latent(model: AutoDecoder, config: PlannerConfig, scene: fields.SceneFields, condition,
-               prior_points, prior_values, *, generator: Optional[torch.Generator] = None) -> LatentFit:
+               prior_points, prior_values, *, generator: Optional[torch.Generator] = None,
+               record=()) -> LatentFit:
     """Eq. 9: optimise ``config.inits`` codes at once against the known fields of a new scene.
 
     Args:
@@ -359,15 +363,14 @@ def fit_latent(model: AutoDecoder, config: PlannerConfig, scene: fields.SceneFie
         condition: (4,) ``c``.
         prior_points, prior_values: ``x_prior`` and ``D_toa`` there (:func:`prior_samples`).
         generator: draws the initial codes and the cells of each step (default: seeded by ``config.seed``).
+        record: steps (0 = before the first) whose codes are kept in ``LatentFit.history``.
     """
     generator = generator if generator is not None else torch.Generator().manual_seed(config.seed)
-    index = _channel_index(config.channels)
-    known = [k for k in index if k != 2]
+    known = [c for c in config.channels if c != "toa"]
     grid = scene.grid
     points = torch.as_tensor(grid.to_local(grid.points()).reshape(-1, 3), dtype=torch.float32)
     eps = scene.epsilons
-    stacked = np.stack([scene.D_t * eps[0], scene.D_o * eps[1]], axis=-1).reshape(-1, 2)
-    targets = torch.as_tensor(stacked[:, known], dtype=torch.float32)
+    targets = torch.as_tensor(_known_targets(scene, known), dtype=torch.float32)
     prior_points = torch.as_tensor(np.asarray(prior_points), dtype=torch.float32).reshape(-1, 3)
     prior_values = torch.as_tensor(np.asarray(prior_values), dtype=torch.float32).reshape(-1) * float(eps[2])
     if len(prior_points) == 0:
@@ -383,6 +386,8 @@ def fit_latent(model: AutoDecoder, config: PlannerConfig, scene: fields.SceneFie
         p.requires_grad_(False)
     toa = len(config.channels) - 1
     losses = []
+    record = set(int(r) for r in record)
+    history = {0: codes.detach().clone()} if 0 in record else {}
     start = time.perf_counter()
     try:
         for step in range(config.fit_steps):
@@ -399,26 +404,32 @@ def fit_latent(model: AutoDecoder, config: PlannerConfig, scene: fields.SceneFie
             loss.sum().backward()
             optimizer.step()
             losses.append(loss.detach().numpy().copy())
+            if step + 1 in record:
+                history[step + 1] = codes.detach().clone()
     finally:
         for p in decoder.parameters():
             p.requires_grad_(True)
     losses = np.stack(losses)
     seconds = time.perf_counter() - start
     final = latent_objective(model, config, scene, condition, prior_points, prior_values / float(eps[2]), codes.detach())
-    return LatentFit(codes.detach(), losses, final, seconds, initial)
+    return LatentFit(codes.detach(), losses, final, seconds, initial, history)
+
+
+def _known_targets(scene: fields.SceneFields, known) -> np.ndarray:
+    """(n³, k) the scene's known channels (all but D_toa) times their ε."""
+    stacked = np.stack([scene.D_t, scene.D_o, np.zeros_like(scene.D_t)], axis=-1).reshape(-1, 3)
+    return channel_values(stacked, known) * _channel_scales(scene.epsilons, known)
 
 
 @torch.no_grad()
 def latent_objective(model: AutoDecoder, config: PlannerConfig, scene: fields.SceneFields, condition,
                      prior_points, prior_values, codes) -> np.ndarray:
     """Eq. 9 (divided by ``N(E_t)``) over the whole grid for each of ``codes`` (inits, latent): (inits,)."""
-    index = _channel_index(config.channels)
-    known = [k for k in index if k != 2]
+    known = [c for c in config.channels if c != "toa"]
     grid = scene.grid
     eps = scene.epsilons
     points = torch.as_tensor(grid.to_local(grid.points()).reshape(-1, 3), dtype=torch.float32)
-    targets = torch.as_tensor(np.stack([scene.D_t * eps[0], scene.D_o * eps[1]], axis=-1).reshape(-1, 2)[:, known],
-                              dtype=torch.float32)
+    targets = torch.as_tensor(_known_targets(scene, known), dtype=torch.float32)
     prior_points = torch.as_tensor(np.asarray(prior_points), dtype=torch.float32).reshape(-1, 3)
     prior_values = torch.as_tensor(np.asarray(prior_values), dtype=torch.float32).reshape(-1) * float(eps[2])
     c = torch.as_tensor(np.asarray(condition), dtype=torch.float32)
@@ -591,8 +602,19 @@ def plan_trajectory(model: AutoDecoder, config: PlannerConfig, dataset: Interact
         condition: (4,) ``c``.
         wrist: (3,) metres, the wrist at the planning frame.
         goal: (3,) metres, the contact (grasp or release) point; it must not lie inside an obstacle.
-        init: use this initialisation's code instead of the best one (Table 3 reports each).
+        init: use this initialisation's code instead of the best one (:func:`plan_each_init` plans
+            with every one from a single fit).
     """
+    plans = plan_each_init(model, config, dataset, scene, condition, wrist, goal, blend_frames=blend_frames,
+                           generator=generator, inits=None if init is None else [int(init)])
+    return plans[0]
+
+
+def plan_each_init(model: AutoDecoder, config: PlannerConfig, dataset: InteractionSet, scene: fields.SceneFields,
+                   condition, wrist, goal, *, inits=None, blend_frames: int = 5,
+                   generator: Optional[torch.Generator] = None) -> list:
+    """:func:`plan_trajectory` for several codes of one latent fit: ``inits`` (indices; default: the
+    best one only — pass ``range(config.inits)`` for all, as CHOICE's Table 3 reports)."""
     start_clock = time.perf_counter()
     grid = scene.grid
     goal = np.asarray(goal, dtype=np.float64)
@@ -607,18 +629,27 @@ def plan_trajectory(model: AutoDecoder, config: PlannerConfig, dataset: Interact
     prior = dataset.interactions[prior_index]
     points, values, _ = prior_samples(scene, prior, goal, config.prior_radius)
     fit = fit_latent(model, config, scene, condition, points, values, generator=generator)
-    code = fit.best if init is None else fit.codes[int(init)]
-    phi = time_field(model, code, condition, grid, config.max_time)
+    fit_seconds = time.perf_counter() - start_clock
     fps = 30.0
     mean_speed = float(np.mean(np.linalg.norm(np.diff(prior.wrist, axis=0), axis=-1)) * fps)
-    x_s = start_point(grid, phi, wrist, mean_speed, scene.blocked, config.max_time)
-    path = integrate(model, code, condition, grid, x_s, step=mean_speed / fps, max_time=config.max_time,
-                     stop_time=float(scene.epsilons[2]))
     carried = carried_prior(grid, prior, goal)
-    # the last frames blend to the carried prior, whose contact is the goal
-    k = min(blend_frames, len(path))
-    w = np.linspace(0.0, 1.0, k + 1)[1:, None]
-    path = np.concatenate([path[:-k], (1 - w) * path[-k:] + w * carried[-k:]])
-    rotations = transfer_orientation(carried, prior.wrist_rotations, path)
     segment = "leave" if float(condition[3]) > 0.5 else "approach"
-    return Plan(path, rotations, x_s, prior_index, fit, code, time.perf_counter() - start_clock, segment)
+    chosen = [int(np.argmin(fit.final))] if inits is None else [int(k) for k in inits]
+    plans = []
+    for k in chosen:
+        clock = time.perf_counter()
+        code = fit.codes[k]
+        phi = time_field(model, code, condition, grid, config.max_time)
+        x_s = start_point(grid, phi, wrist, mean_speed, scene.blocked, config.max_time)
+        path = integrate(model, code, condition, grid, x_s, step=mean_speed / fps, max_time=config.max_time,
+                         stop_time=float(scene.epsilons[2]))
+        if len(path) < blend_frames + 1:  # the walk stopped at once: hold x_s, then the blend carries it in
+            path = np.concatenate([np.repeat(path[:1], blend_frames + 1 - len(path), axis=0), path])
+        # the last frames blend to the carried prior, whose contact is the goal
+        n = min(blend_frames, len(path))
+        w = np.linspace(0.0, 1.0, n + 1)[1:, None]
+        path = np.concatenate([path[:-n], (1 - w) * path[-n:] + w * carried[-n:]])
+        rotations = transfer_orientation(carried, prior.wrist_rotations, path)
+        plans.append(Plan(path, rotations, x_s, prior_index, fit, code,
+                          fit_seconds + time.perf_counter() - clock, segment))
+    return plans
