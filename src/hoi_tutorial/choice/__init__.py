@@ -10,10 +10,14 @@ Modules, in the order of the paper:
 - ``core``: the auto-decoder's network ``f_θ(x, z; c)`` (§4.2, Fig. 3).
 - ``planner``: training (Eqs. 7–8), the run-time latent fit (Eq. 9), the start point (Eq. 11), the
   integration (Eq. 10) and the orientation transfer (Eq. 12).
+- ``baselines``: the collision-penalised minimum-jerk planner standing in for cuRobo (§8.2.1).
+- ``evaluation``: Table 3's protocol — unseen layouts, reshaped containers, unsmoothness, safety
+  distance, success (§8.2.2).
+- ``paper_numbers``: the paper's reported numbers, transcribed, for the tables set beside ours.
 
-The planner's baselines and Table 3, and the controller half of the paper (§5–6, Table 4) are still
-to come.
+Still to come: the diffusion-policy baseline, Figs. 10–11, and the controller half of the paper
+(§5–6, Table 4).
 """
-from . import core, data, fields, planner
+from . import baselines, core, data, evaluation, fields, paper_numbers, planner
 
-__all__ = ["core", "data", "fields", "planner"]
+__all__ = ["baselines", "core", "data", "evaluation", "fields", "paper_numbers", "planner"]

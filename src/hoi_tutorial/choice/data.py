@@ -76,7 +76,7 @@ class PlannerDataConfig:
     """
 
     n_clips: int = 24
-    n_test_clips: int = 12
+    n_test_clips: int = 18
     items: tuple = GRASPABLE
     clutter: int = 2
     clearance: float = 0.06
