@@ -33,3 +33,13 @@ def one_cpu_thread():
 
     with one_thread():
         yield
+
+
+@pytest.fixture(scope="module")
+def module_cache(tmp_path_factory):
+    """An empty artifact cache (``HOI_CACHE``) shared by one test module's tests, restored afterwards."""
+    patch = pytest.MonkeyPatch()
+    cache_dir = tmp_path_factory.mktemp("hoi_cache")
+    patch.setenv("HOI_CACHE", str(cache_dir))
+    yield cache_dir
+    patch.undo()

@@ -39,16 +39,9 @@ def test_scaling_an_object_scales_its_box():
 
 
 @pytest.fixture(scope="module")
-def test_set(tmp_path_factory):
-    import os
-
-    old = os.environ.get("HOI_CACHE")
-    os.environ["HOI_CACHE"] = str(tmp_path_factory.mktemp("cache"))
-    try:
-        config = data.planner_data_config("toy", n_clips=1, n_test_clips=3)
-        yield config, data.interaction_set(config, "test")
-    finally:
-        os.environ.pop("HOI_CACHE", None) if old is None else os.environ.__setitem__("HOI_CACHE", old)
+def test_set(module_cache):
+    config = data.planner_data_config("toy", n_clips=1, n_test_clips=3)
+    return config, data.interaction_set(config, "test")
 
 
 def test_cases_keep_the_goal_clear_and_move_it_with_a_reshaped_container(test_set):

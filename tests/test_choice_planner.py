@@ -10,23 +10,13 @@ from hoi_tutorial.choice.core import FieldDecoder, channel_values
 
 
 @pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
+def tiny(module_cache):
     """Two clips' interactions and an auto-decoder trained on them for a few hundred steps."""
-    import os
-
-    old = os.environ.get("HOI_CACHE")
-    os.environ["HOI_CACHE"] = str(tmp_path_factory.mktemp("cache"))
-    try:
-        dcfg = data.planner_data_config("toy", n_clips=2, n_test_clips=1)
-        train = data.interaction_set(dcfg, "train")
-        cfg = planner.planner_config("toy", width=48, latent=8, steps=400, batch_size=4, fit_steps=40)
-        model, result = planner.train_planner(train, cfg)
-        yield dcfg, train, cfg, model, result
-    finally:
-        if old is None:
-            os.environ.pop("HOI_CACHE", None)
-        else:
-            os.environ["HOI_CACHE"] = old
+    dcfg = data.planner_data_config("toy", n_clips=2, n_test_clips=1)
+    train = data.interaction_set(dcfg, "train")
+    cfg = planner.planner_config("toy", width=48, latent=8, steps=400, batch_size=4, fit_steps=40)
+    model, result = planner.train_planner(train, cfg)
+    return dcfg, train, cfg, model, result
 
 
 def test_interactions_have_fields_conditions_and_the_contact_last(tiny):
