@@ -24,7 +24,6 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-import torch
 
 from .. import metrics
 from ..infra import load_or_build
@@ -70,10 +69,7 @@ class PlanningCase:
 
     def obstacle_sdf(self, points):
         """Signed distance to the nearest obstacle (numpy or torch points (..., 3))."""
-        parts = [o.sdf(points) for o in self.obstacles]
-        if isinstance(points, torch.Tensor):
-            return torch.stack(parts, dim=-1).min(dim=-1).values
-        return np.min(np.stack(parts, axis=-1), axis=-1)
+        return fields.sdf_union(self.obstacles)(points)
 
 
 def scale_object(obj, factors):
@@ -134,7 +130,7 @@ def planning_cases(test: InteractionSet, config_field: fields.FieldConfig, *, re
         if not inside.any():
             continue
         start = inter.wrist[np.flatnonzero(inside)[0]]
-        obstacle_sdf = lambda p, obs=obstacles: np.min(np.stack([o.sdf(p) for o in obs], -1), -1)
+        obstacle_sdf = fields.sdf_union(obstacles)
         pickable = (grid.contains(goal) and float(obstacle_sdf(goal)) > 0.01 and float(obstacle_sdf(start)) > 0
                     and float(new_target.sdf(start)) > 0
                     and all(np.min(new_target.sdf(o.surface_points(64, seed=0))) > 0.005 for o in moved))

@@ -53,6 +53,7 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 import skfmm
+import torch
 from scipy.spatial import cKDTree
 
 from .._validate import check_finite, check_shape
@@ -67,6 +68,7 @@ __all__ = [
     "fast_marching_distance",
     "fast_marching_time",
     "inverse_distance",
+    "sdf_union",
     "target_distance",
     "obstacle_distance",
     "demonstration_speed",
@@ -344,8 +346,10 @@ def inverse_distance(d, epsilon: float) -> np.ndarray:
 # ----------------------------------------------------------------------------- the three fields
 
 
-def _sdf_union(things) -> Callable:
-    """One SDF from objects with ``.sdf(points)`` and/or callables ``points (..., 3) -> (...)``."""
+def sdf_union(things) -> Callable:
+    """One signed distance (the minimum) from objects with ``.sdf(points)`` and/or callables
+    ``points (..., 3) -> (...)``: numpy points give float64 numpy, torch points a (differentiable)
+    tensor; with nothing in ``things`` every point is infinitely far."""
     parts = []
     for k, thing in enumerate(things):
         if hasattr(thing, "sdf"):
@@ -356,6 +360,10 @@ def _sdf_union(things) -> Callable:
             raise TypeError(f"obstacles[{k}]: expected an object with .sdf(points) or a callable, got {type(thing).__name__}")
 
     def sdf(points):
+        if isinstance(points, torch.Tensor):
+            if not parts:
+                return torch.full(points.shape[:-1], float("inf"), dtype=points.dtype, device=points.device)
+            return torch.stack([p(points) for p in parts], dim=0).min(dim=0).values
         if not parts:
             return np.full(np.shape(points)[:-1], np.inf)
         return np.min(np.stack([np.asarray(p(points), dtype=np.float64) for p in parts], axis=0), axis=0)
@@ -363,9 +371,10 @@ def _sdf_union(things) -> Callable:
     return sdf
 
 
-def _grid_sdf(grid: FieldGrid, thing) -> np.ndarray:
-    sdf = _sdf_union([thing]) if not isinstance(thing, (list, tuple)) else _sdf_union(thing)
-    return sdf(grid.points().reshape(-1, 3)).reshape(grid.shape)
+def _grid_sdf(grid: FieldGrid, things) -> np.ndarray:
+    """(n, n, n) the union SDF of ``things`` (one object, a callable or a list of them) at the cell centres."""
+    things = list(things) if isinstance(things, (list, tuple)) else [things]
+    return sdf_union(things)(grid.points().reshape(-1, 3)).reshape(grid.shape)
 
 
 def target_distance(grid: FieldGrid, target_sdf, obstacle_sdf, order: int = 2) -> np.ndarray:
@@ -559,7 +568,7 @@ def scene_fields(grid: FieldGrid, target, obstacles: Sequence = (), trajectory=N
     target_sdf = _grid_sdf(grid, target)
     if not np.any(target_sdf < 0.5 * grid.spacing):
         raise ValueError("target: expected the target object inside the grid (no cell is within half a cell of it)")
-    obstacle_sdf = _sdf_union(list(obstacles))(grid.points().reshape(-1, 3)).reshape(grid.shape)
+    obstacle_sdf = _grid_sdf(grid, list(obstacles))
     d_t = target_distance(grid, target_sdf, obstacle_sdf, config.order)
     d_o = obstacle_distance(grid, target_sdf, obstacle_sdf, config.order)
     time = None
