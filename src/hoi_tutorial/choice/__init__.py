@@ -10,14 +10,17 @@ Modules, in the order of the paper:
 - ``core``: the auto-decoder's network ``f_θ(x, z; c)`` (§4.2, Fig. 3).
 - ``planner``: training (Eqs. 7–8), the run-time latent fit (Eq. 9), the start point (Eq. 11), the
   integration (Eq. 10) and the orientation transfer (Eq. 12).
-- ``baselines``: the collision-penalised minimum-jerk planner standing in for cuRobo (§8.2.1).
+- ``baselines``: the collision-penalised minimum-jerk planner standing in for cuRobo, and the diffusion
+  policy of Chi et al. on ``nn.diffusion`` (§8.2.1).
 - ``evaluation``: Table 3's protocol — unseen layouts, reshaped containers, unsmoothness, safety
   distance, success (§8.2.2).
 - ``paper_numbers``: the paper's reported numbers, transcribed, for the tables set beside ours.
+- ``phase``: the DeepPhase periodic autoencoder whose phase manifold the controller works in (§5, §7).
+- ``kalman``: the phase linear dynamical system (Eqs. 15–17) and the goal-phase Kalman filter
+  (Eqs. 18–22, Algorithm 1).
 
-Still to come: the diffusion-policy baseline, Figs. 10–11, and the controller half of the paper
-(§5–6, Table 4).
+Still to come: the goal-driven controller, navigation, the scheduler and Table 4 (§5–6, §8.3).
 """
-from . import baselines, core, data, evaluation, fields, paper_numbers, planner
+from . import baselines, core, data, evaluation, fields, kalman, paper_numbers, phase, planner
 
-__all__ = ["baselines", "core", "data", "evaluation", "fields", "paper_numbers", "planner"]
+__all__ = ["baselines", "core", "data", "evaluation", "fields", "kalman", "paper_numbers", "phase", "planner"]
