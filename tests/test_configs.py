@@ -16,7 +16,7 @@ from hoi_tutorial.infra import SCALES, artifact_key, scaled_config
 from hoi_tutorial.nifty import (baselines, data, evaluation, interaction_field, motion_model, motion_prior, rollout,
                                 toy2d, trajectories)
 from hoi_tutorial.samp import goalnet, motion_data, motionnet
-from hoi_tutorial.choice import data as choice_data, fields, planner
+from hoi_tutorial.choice import baselines as choice_baselines, data as choice_data, fields, phase, planner
 
 ACTIONS = ("sit", "lift")
 
@@ -40,6 +40,8 @@ FACTORIES = [
     (fields, "field_config", fields.FieldConfig, False),
     (choice_data, "planner_data_config", choice_data.PlannerDataConfig, False),
     (planner, "planner_config", planner.PlannerConfig, False),
+    (choice_baselines, "diffusion_policy_config", choice_baselines.DiffusionPolicyConfig, False),
+    (phase, "phase_config", phase.PhaseConfig, False),
 ]
 
 CASES = [(module, name, cls, scale, action)

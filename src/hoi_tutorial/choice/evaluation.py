@@ -194,13 +194,15 @@ PLANNER_VARIANTS = {  # Table 3's rows that are configurations of one planner (Â
 }
 
 
-def table3_runs(data_config, planner_config, *, seed: int = 0, device="cpu") -> dict:
-    """Every planner of Table 3 that is built so far on the test cases with and without reshaping,
-    built once and then loaded from the cache.
+def table3_runs(data_config, planner_config, policy_config, *, seed: int = 0, device="cpu") -> dict:
+    """Every planner of Table 3 on the test cases with and without reshaping, built once and then loaded
+    from the cache.
 
     The minimum-jerk optimiser (the cuRobo stand-in) plans from the start to the goal over the frames
-    the straight distance takes at the training demonstrations' mean wrist speed; each planner variant
-    is trained (``planner.trained_planner`` with its channels) and plans with each of its
+    the straight distance takes at the training demonstrations' mean wrist speed; the diffusion policy
+    (``baselines.trained_diffusion_policy`` with ``policy_config``) is rolled out ``planner_config.inits``
+    times per case (each rollout's own sampling noise; all cases and repeats in one batch); each planner
+    variant is trained (``planner.trained_planner`` with its channels) and plans with each of its
     ``planner_config.inits`` latent initialisations.
 
     Returns:
@@ -219,11 +221,23 @@ def table3_runs(data_config, planner_config, *, seed: int = 0, device="cpu") -> 
         speed = float(np.mean([np.linalg.norm(np.diff(i.wrist, axis=0), axis=-1).mean() * 30.0 for i in train.interactions]))
         models = {name: planner.trained_planner(data_config, dataclasses.replace(planner_config, channels=ch), device=device).model
                   for name, ch in PLANNER_VARIANTS.items()}
+        policy = baselines.trained_diffusion_policy(data_config, policy_config, device=device).model
+        conditions = {label: planning_cases(test, data_config.field, reshape=reshape, seed=seed)
+                      for label, reshape in (("w/o reshaping", False), ("w/ reshaping", True))}
+        repeats = [(label, k, case) for k in range(planner_config.inits) for label, cases in conditions.items()
+                   for case in cases]
+        clock = time.perf_counter()
+        policy_paths = baselines.diffusion_policy_rollout(
+            policy, [c.scene for *_, c in repeats], [c.start for *_, c in repeats], [c.goal for *_, c in repeats],
+            [c.condition for *_, c in repeats], seed=seed)
+        policy_seconds = (time.perf_counter() - clock) / len(repeats)
         out = {"cases": {}}
-        for label, reshape in (("w/o reshaping", False), ("w/ reshaping", True)):
-            cases = planning_cases(test, data_config.field, reshape=reshape, seed=seed)
+        for label, cases in conditions.items():
             out["cases"][label] = len(cases)
             rows = {}
+            per_repeat = [[_as_row(measure_run(path, case)) for (lab, k, case), path in zip(repeats, policy_paths)
+                           if lab == label and k == r] for r in range(planner_config.inits)]
+            rows["Diffusion Policy"] = {"runs": np.asarray(per_repeat), "seconds": np.full(len(cases), policy_seconds)}
             runs, seconds = [], []
             for case in cases:
                 clock = time.perf_counter()
@@ -246,7 +260,8 @@ def table3_runs(data_config, planner_config, *, seed: int = 0, device="cpu") -> 
             out[label] = rows
         return out
 
-    key = {"data": dataclasses.asdict(data_config), "planner": dataclasses.asdict(planner_config), "seed": int(seed)}
+    key = {"data": dataclasses.asdict(data_config), "planner": dataclasses.asdict(planner_config),
+           "policy": dataclasses.asdict(policy_config), "seed": int(seed)}
     return load_or_build("choice_table3", key, build, code=(sys.modules[__name__], baselines, planner, data, fields))
 
 

@@ -250,7 +250,7 @@ def trained_planner(data_config: PlannerDataConfig, config: PlannerConfig, devic
         details = {name: float(np.mean(result.extra[name][-100:])) for name in config.channels}
         return {"state": state_dict_to_cpu(model), "losses": torch.tensor(result.losses),
                 "seconds": float(result.seconds), "n_interactions": len(dataset),
-                "code_norm": float(model.codes.weight.norm(dim=-1).mean()), **details}
+                "code_norm": float(model.codes.weight.detach().norm(dim=-1).mean()), **details}
 
     key = {"data": dataclasses.asdict(data_config), "model": dataclasses.asdict(config)}
     artifact = load_or_build("choice_planner", key, build, code=(core, data, fields, sys.modules[__name__]))
