@@ -16,7 +16,8 @@ from hoi_tutorial.infra import SCALES, artifact_key, scaled_config
 from hoi_tutorial.nifty import (baselines, data, evaluation, interaction_field, motion_model, motion_prior, rollout,
                                 toy2d, trajectories)
 from hoi_tutorial.samp import goalnet, motion_data, motionnet
-from hoi_tutorial.choice import baselines as choice_baselines, data as choice_data, fields, phase, planner
+from hoi_tutorial.choice import (baselines as choice_baselines, data as choice_data, environment, fields, navigation, phase,
+                                 planner, scheduler)
 
 ACTIONS = ("sit", "lift")
 
@@ -42,6 +43,10 @@ FACTORIES = [
     (planner, "planner_config", planner.PlannerConfig, False),
     (choice_baselines, "diffusion_policy_config", choice_baselines.DiffusionPolicyConfig, False),
     (phase, "phase_config", phase.PhaseConfig, False),
+    (environment, "environment_config", environment.EnvironmentConfig, False),
+    (environment, "library_config", environment.LibraryConfig, False),
+    (scheduler, "scheduler_config", scheduler.SchedulerConfig, False),
+    (navigation, "navigation_config", navigation.NavigationConfig, False),
 ]
 
 CASES = [(module, name, cls, scale, action)

@@ -18,9 +18,17 @@ Modules, in the order of the paper:
 - ``phase``: the DeepPhase periodic autoencoder whose phase manifold the controller works in (§5, §7).
 - ``kalman``: the phase linear dynamical system (Eqs. 15–17) and the goal-phase Kalman filter
   (Eqs. 18–22, Algorithm 1).
+- ``navigation``: the 2D path to the goal by fast marching with the cost of Eq. 23, split every 3 m (§6.2).
+- ``locomotion``: navigation matching — the features ``N``, a KD-tree over toy-mocap walks, and the path
+  followed by stitched clips that do not collide (§6.2).
+- ``environment``: the goal's environment features (a 3D-CNN autoencoder over its distance field) and
+  K-nearest goal matching with a KD-tree (§6.1).
+- ``scheduler``: the bimanual task scheduler (Eq. 24) and the state machine of Fig. 6 (§6.3).
 
-Still to come: the goal-driven controller, navigation, the scheduler and Table 4 (§5–6, §8.3).
+Still to come: the goal-driven controller (§5.1), its evaluation and Table 4 (§8.3).
 """
-from . import baselines, core, data, evaluation, fields, kalman, paper_numbers, phase, planner
+from . import (baselines, core, data, environment, evaluation, fields, kalman, locomotion, navigation, paper_numbers,
+               phase, planner, scheduler)
 
-__all__ = ["baselines", "core", "data", "evaluation", "fields", "kalman", "paper_numbers", "phase", "planner"]
+__all__ = ["baselines", "core", "data", "environment", "evaluation", "fields", "kalman", "locomotion", "navigation",
+           "paper_numbers", "phase", "planner", "scheduler"]
