@@ -2,14 +2,18 @@
 
 Rows are the paper's method names as printed; values with a spread are kept as the printed strings.
 
-Source: CHOICE (Lu et al. 2024), §8.2.2, Table 3 ("Comparison among SE(3) trajectory planners for the end
-effector"; INTPs run three times per scene with different latent initialisations, mean ± std).
+Sources: CHOICE (Lu et al. 2024), §8.2.2, Table 3 ("Comparison among SE(3) trajectory planners for the end
+effector"; INTPs run three times per scene with different latent initialisations, mean ± std); §8.3.1, Table 4
+("Ablation study and comparison to the human motion data": unsmoothness and sliding in cm/s², the Fréchet
+distance over 2 s pose windows, the wrist's RMS curvature in cm⁻¹; "-" where the paper prints none); §7,
+Table 2 ("The distribution of action labels and task descriptions for the key joints", seconds and %; the
+key-joint action column as printed, "Draw" included).
 """
 from __future__ import annotations
 
 from types import MappingProxyType
 
-__all__ = ["TABLE3_COLUMNS", "TABLE3"]
+__all__ = ["TABLE3_COLUMNS", "TABLE3", "TABLE4_COLUMNS", "TABLE4", "TABLE2_COLUMNS", "TABLE2"]
 
 TABLE3_COLUMNS = ("unsmooth.", "safety dist.", "succ. rate")
 
@@ -34,3 +38,27 @@ TABLE3 = MappingProxyType({
         "INTP-3Channels": ("4.85 ± 0.20", "7.82 ± 0.15", 95.8),
     }),
 })
+
+TABLE4_COLUMNS = ("Unsmth.", "Slid.", "FD", "EE RMSC")
+
+TABLE4 = MappingProxyType({k: MappingProxyType(dict(zip(TABLE4_COLUMNS, v))) for k, v in {
+    "w/ KF + cuRobo": (6.54, 7.22, 691, 0.0725),
+    "w/o goal phase": (6.78, 7.55, 819, 0.0982),
+    "w/ matched goal": (6.36, 6.80, 689, 0.0721),
+    "w/ predicted goal": (6.30, 6.86, 711, 0.0614),
+    "w/ KF goal": (5.94, 6.17, 670, 0.0509),
+    "Dataset": (2.22, 1.02, "-", 0.0408),
+}.items()})
+
+TABLE2_COLUMNS = ("Key Joint Action", "Task", "Seconds", "%")
+
+TABLE2 = (  # rows in the paper's order; the key-joint action spans the rows of its tasks
+    ("Object Manipulate", "Grasp/Place", 3451, 12.7),
+    ("Object Manipulate", "Cook", 2845, 10.5),
+    ("Object Manipulate", "Drink", 98, 0.4),
+    ("Object Manipulate", "Pour", 3075, 11.3),
+    ("Door Manipulate", "Door opening/closing", 3046, 11.2),
+    ("Draw", "Drawer Drag", 1731, 6.4),
+    ("Idle", "Turn/Stand/Squat", 23352, 85.9),
+    ("Walk", "Approach", 3845, 14.1),
+)
