@@ -16,8 +16,8 @@ from hoi_tutorial.infra import SCALES, artifact_key, scaled_config
 from hoi_tutorial.nifty import (baselines, data, evaluation, interaction_field, motion_model, motion_prior, rollout,
                                 toy2d, trajectories)
 from hoi_tutorial.samp import goalnet, motion_data, motionnet
-from hoi_tutorial.choice import (baselines as choice_baselines, data as choice_data, environment, fields, navigation, phase,
-                                 planner, scheduler)
+from hoi_tutorial.choice import (baselines as choice_baselines, controller, data as choice_data, environment, fields,
+                                 navigation, phase, planner, scheduler)
 
 ACTIONS = ("sit", "lift")
 
@@ -47,6 +47,7 @@ FACTORIES = [
     (environment, "library_config", environment.LibraryConfig, False),
     (scheduler, "scheduler_config", scheduler.SchedulerConfig, False),
     (navigation, "navigation_config", navigation.NavigationConfig, False),
+    (controller, "controller_config", controller.ControllerConfig, False),
 ]
 
 CASES = [(module, name, cls, scale, action)

@@ -24,11 +24,13 @@ Modules, in the order of the paper:
 - ``environment``: the goal's environment features (a 3D-CNN autoencoder over its distance field) and
   K-nearest goal matching with a KD-tree (§6.1).
 - ``scheduler``: the bimanual task scheduler (Eq. 24) and the state machine of Fig. 6 (§6.3).
+- ``controller``: the goal-driven MoE controller on phase features, with the four goal-phase sources of
+  Table 4 (none, matched, predicted, Kalman-filtered) (§5.1, first version: teacher-forced training).
 
-Still to come: the goal-driven controller (§5.1), its evaluation and Table 4 (§8.3).
+Still to come: the pick-and-place run that joins them and Table 4 (§8.3).
 """
-from . import (baselines, core, data, environment, evaluation, fields, kalman, locomotion, navigation, paper_numbers,
-               phase, planner, scheduler)
+from . import (baselines, controller, core, data, environment, evaluation, fields, kalman, locomotion, navigation,
+               paper_numbers, phase, planner, scheduler)
 
-__all__ = ["baselines", "core", "data", "environment", "evaluation", "fields", "kalman", "locomotion", "navigation",
-           "paper_numbers", "phase", "planner", "scheduler"]
+__all__ = ["baselines", "controller", "core", "data", "environment", "evaluation", "fields", "kalman", "locomotion",
+           "navigation", "paper_numbers", "phase", "planner", "scheduler"]

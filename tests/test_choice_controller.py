@@ -1,0 +1,155 @@
+"""The goal-driven controller (CHOICE §5.1, Table 4's goal-phase variants) at a tiny scale."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import torch
+
+from hoi_tutorial.choice import controller as ctl
+from hoi_tutorial.choice import kalman
+from hoi_tutorial.world import mocap
+from hoi_tutorial.world.rotations import rotation_about_z
+
+pytestmark = pytest.mark.usefixtures("one_cpu_thread", "module_cache")
+
+TINY = dict(clips=4, steps=300, hidden=48, gating_hidden=16, phase_steps=30)
+
+
+@pytest.fixture(scope="module")
+def trained():
+    return ctl.trained_controller(ctl.controller_config("toy", **TINY))
+
+
+@pytest.fixture(scope="module")
+def clips():
+    return mocap.generate_dataset(TINY["clips"], seed=0, kinds=("reach_grasp",))[:2]
+
+
+@pytest.fixture(scope="module")
+def start(trained, clips):
+    return ctl.initial_state(trained.model, clips, 0), ctl.clip_goal(trained.model, clips)
+
+
+def test_window_constants_follow_the_paper():
+    assert ctl.WINDOW == 13 and int(ctl.WINDOW_OFFSETS[-1] - ctl.WINDOW_OFFSETS[0]) / 30.0 == pytest.approx(2.0)
+    assert int(ctl.FUTURE_OFFSETS[-1]) / 30.0 == pytest.approx(1.0)
+
+
+def test_phase_features_round_trip():
+    state = torch.tensor([[[0.3, 0.5, 2.0], [0.9, 0.1, 1.0]]])
+    features = ctl.goal_phase_features(state)
+    assert features.shape == (1, 6)
+    assert torch.allclose(features[0, :2], 0.5 * torch.tensor([np.sin(0.6 * np.pi), np.cos(0.6 * np.pi)]).float())
+    assert torch.allclose(ctl.phase_state(features), state, atol=1e-5)
+
+
+def test_output_shapes(trained, start):
+    model = trained.model
+    state, goal = start
+    B, C = 2, model.channels
+    assert model(torch.zeros(B, model.in_size)).shape == (B, model.out_size)
+    nxt, out = ctl.controller_step(model, state, goal, torch.zeros(B, 3 * C))
+    assert nxt.pose.shape == state.pose.shape and nxt.history.shape == state.history.shape
+    assert nxt.future.shape == state.future.shape and nxt.phase.shape == state.phase.shape
+    for name in ("ego", "goal_centric", "blended"):
+        assert out[name].shape == (B, 7, 4, 9)
+    assert out["goal"].shape == (B, 13, 4, 9) and out["goal_phase_state"].shape == (B, C, 3)
+    assert out["deviation"].shape == (B,) and bool((out["deviation"] >= 0).all())
+    assert out["wrist"].shape == (B, 2, 3) and bool(((out["blend"] >= 0) & (out["blend"] <= 1)).all())
+
+
+def test_eq14_goal_centric_targets_map_back_to_the_egocentric_ones(trained, clips):
+    x, y, _ = ctl.clip_features(clips[0], trained.model.phase_model)
+    layout = trained.model.y_layout
+    ego = y[:, layout["ego"]].reshape(-1, 7, 4, 9).double()
+    inv_p, inv_r = ctl._decode(y[:, layout["inv"]].reshape(-1, 7, 4, 9).double())
+    goal = x[:, trained.model.x_layout["goal"]].reshape(-1, 13, 4, 9).double()[:, 6]
+    g_p, g_r = ctl._decode(goal)
+    mapped = ctl._encode(torch.einsum("nkij,nskj->nski", g_r, inv_p) + g_p[:, None], g_r[:, None] @ inv_r)
+    assert torch.allclose(mapped, ego, atol=1e-4)
+    assert np.allclose(ctl._deviation(ego, mapped), 0.0, atol=1e-3)
+
+
+def test_training_lowers_the_loss(trained):
+    losses = trained.losses
+    assert float(losses[-30:].mean()) < 0.5 * float(losses[:30].mean())
+    assert trained.details["n_frames"] > 0
+
+
+def test_deterministic_for_a_seed(tmp_cache, trained):
+    config = ctl.controller_config("toy", **{**TINY, "steps": 20})
+    pae = trained.model.phase_model
+    data = ctl.controller_data(config, pae)
+    a, _ = ctl.train_controller(data, config, pae)
+    b, _ = ctl.train_controller(data, config, pae)
+    for (name, p), q in zip(a.state_dict().items(), b.state_dict().values()):
+        assert torch.equal(p, q), name
+    c, _ = ctl.train_controller(data, dataclasses.replace(config, seed=1), pae)
+    assert not torch.equal(a.net.layers[0].weight, c.net.layers[0].weight)
+
+
+def test_rollout_moves_the_wrist_toward_the_goal(trained, start, clips):
+    state, goal = start
+    frames = min(c.meta["anchor_frame"] for c in clips)
+    hand = goal.hand
+    target = goal.positions[torch.arange(2), 6, 2 + hand]
+    wrists = state.pose[:, :66].reshape(2, 22, 3)[torch.arange(2), torch.tensor(ctl._WRISTS)[hand]]
+    still = torch.einsum("bij,bj->bi", rotation_about_z(state.heading), wrists) + state.origin  # standing still
+    result = ctl.rollout(trained.model, state, goal, frames, "matched")
+    final = (result.wrist[-1, torch.arange(2), hand] - target).norm(dim=-1)
+    assert bool((final < (still - target).norm(dim=-1)).all())
+
+
+def test_the_variants_differ_only_in_the_goal_phase(trained, start):
+    state, goal = start
+    runs = {v: ctl.rollout(trained.model, state, goal, 5, v) for v in ctl.VARIANTS}
+    assert torch.equal(runs["none"].goal_phase, torch.zeros_like(runs["none"].goal_phase))
+    matched = ctl.goal_phase_features(goal.phase)
+    assert torch.allclose(runs["matched"].goal_phase, matched.expand_as(runs["matched"].goal_phase))
+    for v in ("predicted", "kalman"):
+        assert torch.allclose(runs[v].goal_phase[0], matched)  # both start from the matched phase
+    pred = runs["predicted"]
+    assert torch.allclose(pred.goal_phase[1:], ctl.goal_phase_features(pred.predicted_goal_phase[:-1]), atol=1e-5)
+    # the same goal phase gives the same step whatever the variant's name
+    assert torch.equal(runs["matched"].wrist[0], runs["kalman"].wrist[0])
+    assert not torch.equal(runs["none"].wrist[-1], runs["matched"].wrist[-1])
+
+
+def test_the_kalman_goal_phase_is_filter_step_by_hand(trained, start):
+    state, goal = start
+    run = ctl.rollout(trained.model, state, goal, 4, "kalman")
+    estimate, covariance = goal.phase.double().numpy(), np.zeros(tuple(goal.phase.shape) + (3,))
+    config, variance = kalman.PhaseFilterConfig(), trained.model.phase_variance.double().numpy()
+    s = state
+    for t in range(4):
+        fed = ctl.goal_phase_features(estimate)
+        assert torch.allclose(run.goal_phase[t], fed)
+        s, out = ctl.controller_step(trained.model, s, goal, fed)
+        centre = goal.positions[:, 6]
+        active = kalman.matched_measurement_active(
+            s.origin[:, :2].numpy(), centre[:, 0, :2].numpy(), out["wrist"][torch.arange(2), goal.hand].numpy(),
+            centre[torch.arange(2), 2 + goal.hand].numpy(), config)
+        estimate, covariance = kalman.filter_step(estimate, covariance, variance,
+                                                  out["goal_phase_state"].double().numpy(),
+                                                  out["deviation"].double().numpy()[:, None], config,
+                                                  matched_goal=goal.phase.double().numpy(), use_matched=active[:, None])
+
+
+def test_clear_errors(trained, start):
+    state, goal = start
+    with pytest.raises(ValueError, match="variant: expected one of"):
+        ctl.rollout(trained.model, state, goal, 3, "oracle")
+    with pytest.raises(ValueError, match="frames: expected a positive int"):
+        ctl.rollout(trained.model, state, goal, 0, "none")
+    with pytest.raises(ValueError, match=r"goal_phase: expected shape \(2, 12\)"):
+        ctl.controller_step(trained.model, state, goal, torch.zeros(2, 5))
+    with pytest.raises(ValueError, match="state.pose: expected shape"):
+        ctl.controller_step(trained.model, state._replace(pose=state.pose[:, :10]), goal, torch.zeros(2, 12))
+    with pytest.raises(ValueError, match="x: expected shape"):
+        trained.model(torch.zeros(2, 3))
+    with pytest.raises(ValueError, match="phase_dropout"):
+        ctl.controller_config("toy", phase_dropout=1.5)
+    with pytest.raises(ValueError, match="clips: expected reach-and-grasp clips"):
+        ctl.clip_goal(trained.model, mocap.generate_dataset(1, seed=0, kinds=("walk",)))
