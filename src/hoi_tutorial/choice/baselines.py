@@ -19,6 +19,8 @@ from __future__ import annotations
 
 from typing import Callable, Optional
 
+import dataclasses
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,7 +30,7 @@ from .._validate import check_positive_ints, check_shape
 from ..infra import TrainedModel, load_or_build, scaled_config, single_threaded, state_dict_to_cpu, trainer_config
 from ..nn.denoisers import MLPDenoiser
 from ..nn.diffusion import cosine_schedule, sample, train_denoiser
-from . import fields
+from . import data, fields
 
 __all__ = [
     "minimum_jerk_profile",
@@ -264,11 +266,6 @@ def trained_diffusion_policy(data_config, config: DiffusionPolicyConfig, device=
                              progress: bool = False) -> TrainedModel:
     """The policy trained on ``data.interaction_set(data_config, "train")`` once, then loaded from the cache.
     ``details``: ``n_pairs`` (observation-chunk pairs) and ``obs_dim``."""
-    import dataclasses
-    import sys
-
-    from . import data
-
     def build():
         dataset = data.interaction_set(data_config, "train")
         model, result = train_diffusion_policy(dataset, config, device=device, progress=progress)

@@ -257,7 +257,7 @@ def clip_features(clip: Motion, pae: PhaseAutoencoder) -> tuple[torch.Tensor, to
     frame = rotation_about_z(heading)
     positions, rotations = key_joint_transforms(clip)
     params = phase.clip_phase(pae, clip)
-    states = torch.stack([params.phase, params.amplitude, params.frequency], dim=-1)  # (T, C, 3)
+    states = params.state()  # (T, C, 3)
     features = goal_phase_features(states)  # (T, 3C)
     anchor = int(clip.meta["anchor_frame"])
     t = torch.arange(T - 1)
@@ -484,7 +484,7 @@ def initial_state(model: ControllerNet, clips, frame: int = 0) -> ControllerStat
                      f[frame:frame + 1])[0]
         past = (torch.arange(-PAST, 1) + frame).clamp(0, len(clip) - 1)
         params = phase.clip_phase(model.phase_model, clip)
-        state = torch.stack([params.phase, params.amplitude, params.frequency], dim=-1)[frame]
+        state = params.state()[frame]
         rows.append((origin[frame], heading[frame], pose, _ground(origin[past], heading[past]),
                      goal_phase_features(state)))
     origin, heading, pose, history, features = (torch.stack(v).float() for v in zip(*rows))
@@ -505,7 +505,7 @@ def clip_goal(model: ControllerNet, clips) -> Goal:
         positions, rotations = key_joint_transforms(clip)
         index = (g + WINDOW_OFFSETS).clamp(0, len(clip) - 1)
         params = phase.clip_phase(model.phase_model, clip)
-        state = torch.stack([params.phase, params.amplitude, params.frequency], dim=-1)[g]
+        state = params.state()[g]
         rows.append((positions[index], rotations[index], state, torch.tensor(int(clip.meta["hand"] == "right"))))
     positions, rotations, state, hand = (torch.stack(v) for v in zip(*rows))
     return Goal(positions.float(), rotations.float(), state.float(), hand)

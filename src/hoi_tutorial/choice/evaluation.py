@@ -306,18 +306,17 @@ def pose_window_features(motion, seconds: float = 2.0, sample_every: int = 10, s
     Returns:
         (N, 66 · (seconds·fps / sample_every + 1)) metres; N = 0 when the clip is shorter than the window.
     """
-    from ..world.features import root_frame
-    from ..world.rotations import rotation_about_z
+    from ..world.features import root_frame, to_heading_frame
 
     joints = _joints(motion)
     fps = float(motion.fps)
     span = int(round(seconds * fps))
     if sample_every < 1 or span % sample_every:
         raise ValueError(f"sample_every: expected a divisor of the window's {span} frames, got {sample_every}")
-    origin, heading = (np.asarray(x, dtype=np.float64) for x in root_frame(torch.as_tensor(joints)))
-    rotation = np.asarray(rotation_about_z(torch.as_tensor(heading)), dtype=np.float64)  # (T, 3, 3)
-    local = np.einsum("tji,tkj->tki", rotation, joints - origin[:, None])  # R^T (p - o)
-    flat = local.reshape(len(joints), -1)
+    joints_t = torch.as_tensor(joints)
+    origin, heading = root_frame(joints_t)
+    local = to_heading_frame(joints_t - origin[:, None], heading[:, None].expand(-1, joints_t.shape[1]))
+    flat = local.reshape(len(joints), -1).numpy()
     starts = np.arange(0, len(joints) - span, stride)
     offsets = np.arange(0, span + 1, sample_every)
     return flat[starts[:, None] + offsets[None]].reshape(len(starts), -1)

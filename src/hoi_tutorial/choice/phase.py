@@ -190,6 +190,10 @@ class PhaseParameters(NamedTuple):
     amplitude: torch.Tensor
     offset: torch.Tensor
 
+    def state(self) -> torch.Tensor:
+        """(..., C, 3) the phase state ``X^p = [S, A, F]`` of CHOICE §5.2 per channel (``choice.kalman``'s order)."""
+        return torch.stack([self.phase, self.amplitude, self.frequency], dim=-1)
+
 
 def fft_parameters(curves: torch.Tensor, sample_rate: float):
     """Frequency, amplitude and offset of curves from their real FFT (DeepPhase's ``FFT``).

@@ -60,6 +60,7 @@ __all__ = [
     "feature_layout",
     "body_heading",
     "root_frame",
+    "to_heading_frame",
     "canonical_transform",
     "canonicalize",
     "NIFTY_STATE_LAYOUT",
@@ -379,7 +380,7 @@ def _sample_indices(T: int, fps: float) -> torch.Tensor:
     return (torch.arange(T)[:, None] + offsets[None]).clamp(0, T - 1)
 
 
-def _to_frame(vectors: torch.Tensor, heading: torch.Tensor) -> torch.Tensor:
+def to_heading_frame(vectors: torch.Tensor, heading: torch.Tensor) -> torch.Tensor:
     """Express world vectors ``(..., 3)`` in frames of heading ``(...)`` (rotate by −heading)."""
     rot = rotation_about_z(heading)
     return (rot.transpose(-1, -2) @ vectors[..., None])[..., 0]
@@ -463,18 +464,18 @@ def samp_pose_state(
     sample_origin, sample_heading = origin[idx], heading[idx]  # (T, S, 3), (T, S)
     zero = torch.zeros_like(sample_heading)
     sample_forward = torch.stack([-torch.sin(sample_heading), torch.cos(sample_heading), zero], -1)
-    rel = _to_frame(sample_origin - origin[:, None], heading[:, None].expand_as(sample_heading))
+    rel = to_heading_frame(sample_origin - origin[:, None], heading[:, None].expand_as(sample_heading))
     parts["trajectory_positions"] = rel[..., :2].reshape(T, -1)
-    parts["trajectory_directions"] = _to_frame(sample_forward, heading[:, None].expand_as(sample_heading))[..., :2].reshape(T, -1)
+    parts["trajectory_directions"] = to_heading_frame(sample_forward, heading[:, None].expand_as(sample_heading))[..., :2].reshape(T, -1)
 
     if goal_position is not None:
         goal_pos, goal_dir = _goal_arrays(goal_position, goal_direction, T, dtype)
         goal_heading = torch.atan2(-goal_dir[:, 0], goal_dir[:, 1])[:, None].expand_as(sample_heading)
         goal_ground = goal_pos * torch.tensor([1.0, 1.0, 0.0], dtype=dtype)
-        parts["goal_trajectory_positions"] = _to_frame(sample_origin - goal_ground[:, None], goal_heading)[..., :2].reshape(T, -1)
-        parts["goal_trajectory_directions"] = _to_frame(sample_forward, goal_heading)[..., :2].reshape(T, -1)
-        parts["goal_positions"] = _to_frame(goal_pos[:, None] - sample_origin, sample_heading).reshape(T, -1)
-        parts["goal_directions"] = _to_frame(goal_dir[:, None].expand_as(sample_origin), sample_heading).reshape(T, -1)
+        parts["goal_trajectory_positions"] = to_heading_frame(sample_origin - goal_ground[:, None], goal_heading)[..., :2].reshape(T, -1)
+        parts["goal_trajectory_directions"] = to_heading_frame(sample_forward, goal_heading)[..., :2].reshape(T, -1)
+        parts["goal_positions"] = to_heading_frame(goal_pos[:, None] - sample_origin, sample_heading).reshape(T, -1)
+        parts["goal_directions"] = to_heading_frame(goal_dir[:, None].expand_as(sample_origin), sample_heading).reshape(T, -1)
     else:
         for name in ("goal_trajectory_positions", "goal_trajectory_directions", "goal_positions", "goal_directions"):
             parts[name] = torch.zeros(T, dict(_SAMP_PARTS)[name], dtype=dtype)
