@@ -14,7 +14,7 @@ from hoi_tutorial.world.rotations import rotation_about_z
 
 pytestmark = pytest.mark.usefixtures("one_cpu_thread", "module_cache")
 
-TINY = dict(clips=4, steps=300, hidden=48, gating_hidden=16, phase_steps=30)
+TINY = dict(clips=4, steps=300, unroll=3, unroll_steps=60, hidden=48, gating_hidden=16, phase_steps=30)
 
 
 @pytest.fixture(scope="module")
@@ -79,7 +79,7 @@ def test_training_lowers_the_loss(trained):
 
 
 def test_deterministic_for_a_seed(tmp_cache, trained):
-    config = ctl.controller_config("toy", **{**TINY, "steps": 20})
+    config = ctl.controller_config("toy", **{**TINY, "steps": 20, "unroll_steps": 5})
     pae = trained.model.phase_model
     data = ctl.controller_data(config, pae)
     a, _ = ctl.train_controller(data, config, pae)
@@ -151,5 +151,49 @@ def test_clear_errors(trained, start):
         trained.model(torch.zeros(2, 3))
     with pytest.raises(ValueError, match="phase_dropout"):
         ctl.controller_config("toy", phase_dropout=1.5)
+    with pytest.raises(ValueError, match=r"unroll_steps: expected an int in \[0, steps=100\]"):
+        ctl.controller_config("toy", steps=100, unroll_steps=200)
+    with pytest.raises(ValueError, match="speed: expected a positive"):
+        ctl.toward_goal(state, goal, speed=0.0)
     with pytest.raises(ValueError, match="clips: expected reach-and-grasp clips"):
         ctl.clip_goal(trained.model, mocap.generate_dataset(1, seed=0, kinds=("walk",)))
+
+
+def test_next_future_agrees_with_the_data(trained, clips):
+    """The unrolled training's future root trajectory, made from the targets of frame t (ego root samples and the
+    root update), is the data's input future of frame t + 1."""
+    model = trained.model
+    x, y, _ = ctl.clip_features(clips[0], model.phase_model)
+    future = ctl._next_future(y[:-1, model.y_layout["ego"]].double(), y[:-1, model.y_layout["root_update"]].double())
+    data = x[1:, model.x_layout["trajectory"]].reshape(-1, 13, 4)[:, 6:].double()
+    inside = torch.arange(len(future)) + 1 + 30 < len(clips[0])  # the data's window is clamped at the clip's end
+    assert torch.allclose(future[inside], data[inside], atol=1e-4)
+
+
+def test_unrolled_training_feeds_back_its_own_predictions(tmp_cache, trained):
+    """Teacher forcing and unrolling give different networks from the same data and seed, both finite."""
+    pae = trained.model.phase_model
+    config = ctl.controller_config("toy", **{**TINY, "steps": 12, "unroll_steps": 0})
+    data = ctl.controller_data(config, pae)
+    forced, r1 = ctl.train_controller(data, config, pae)
+    unrolled, r2 = ctl.train_controller(data, dataclasses.replace(config, unroll_steps=6), pae)
+    assert torch.equal(torch.tensor(r1.losses[:6]), torch.tensor(r2.losses[:6]))  # the same first batches
+    assert not torch.equal(forced.net.layers[0].weight, unrolled.net.layers[0].weight)
+    assert np.isfinite(r2.losses).all()
+    with pytest.raises(ValueError, match="consecutive frames"):
+        ctl.train_controller(data._replace(clip=torch.arange(len(data.x))), dataclasses.replace(config, unroll_steps=6),
+                             pae)
+
+
+def test_toward_goal_walks_the_straight_line(trained, start):
+    state, goal = start
+    moved = ctl.toward_goal(state, goal, speed=1.0)
+    frame = rotation_about_z(state.heading)
+    target = torch.einsum("bji,bj->bi", frame, goal.positions[:, 6, 0] - state.origin)[:, :2]
+    steps = moved.future[:, 1:, :2] - moved.future[:, :-1, :2]
+    assert torch.allclose(moved.future[:, 0, :2], torch.zeros(2, 2))
+    for b in range(2):
+        direction = target[b] / target[b].norm()
+        along = steps[b] @ direction
+        assert bool((along >= -1e-6).all()) and bool((along <= 5 / 30 + 1e-6).all())  # 1 m/s, never backwards
+        assert float(moved.future[b, -1, :2].norm()) <= float(target[b].norm()) + 1e-5  # stops at the goal

@@ -79,3 +79,23 @@ def test_transcribed_tables_have_the_printed_shape():
                                           "w/ KF goal", "Dataset"]
     assert paper_numbers.TABLE4["w/ KF goal"]["FD"] == 670 and paper_numbers.TABLE4["Dataset"]["FD"] == "-"
     assert sum(r[3] for r in paper_numbers.TABLE2 if r[0] in ("Idle", "Walk")) == pytest.approx(100.0)
+
+
+def test_straight_approach_keeps_the_ends_and_is_straight():
+    from hoi_tutorial.choice.controller import Goal
+
+    rng = np.random.default_rng(0)
+    positions = torch.as_tensor(rng.normal(size=(2, 13, 4, 3)), dtype=torch.float32)
+    rotations = torch.eye(3).expand(2, 13, 4, 3, 3).clone()
+    goal = Goal(positions, rotations, torch.zeros(2, 4, 3), torch.tensor([0, 1]))
+    straight = evaluation.straight_approach_goal(goal, goal.hand)
+    for b, k in ((0, 2), (1, 3)):
+        path = straight.positions[b, :7, k].double()
+        assert torch.allclose(path[[0, -1]], positions[b, [0, 6], k].double(), atol=1e-5)
+        line = path[-1] - path[0]
+        off = torch.linalg.cross(path - path[0], line.expand_as(path)).norm(dim=-1) / line.norm()
+        assert float(off.max()) < 1e-4  # on the line between the ends
+    # everything else is untouched: the other wrist, the samples after the keyframe, the rotations
+    assert torch.equal(straight.positions[0, :, 3], positions[0, :, 3])
+    assert torch.equal(straight.positions[:, 7:], positions[:, 7:])
+    assert torch.equal(straight.rotations, rotations)

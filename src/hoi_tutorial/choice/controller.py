@@ -84,7 +84,7 @@ __all__ = [
     "ControllerConfig", "CONTROLLER_SCALES", "controller_config",
     "key_joint_transforms", "goal_phase_features", "phase_state",
     "ControllerData", "clip_features", "controller_data", "ControllerNet", "build_controller", "train_controller",
-    "trained_controller", "ControllerState", "Goal", "initial_state", "clip_goal", "controller_step",
+    "trained_controller", "ControllerState", "Goal", "initial_state", "clip_goal", "toward_goal", "controller_step",
     "Rollout", "rollout",
 ]
 
@@ -115,6 +115,8 @@ class ControllerConfig:
         steps, batch_size, lr, lr_schedule, grad_clip, optimizer: training (CHOICE: 150 epochs, 8 h).
         phase_noise: standard deviation of Eq. 13's noise (CHOICE: 0.1).
         phase_dropout: probability that a training sample's goal phase is zeroed (ours; the ``"none"`` variant).
+        unroll, unroll_steps: the last ``unroll_steps`` of the ``steps`` run the network ``unroll`` frames on its
+            own predicted pose and phase (ours; see :func:`train_controller`).
         blend_radius: metres; the ego/goal-centric blend weight reaches 1 at the goal (ours).
         phase_scale, phase_steps: the PAE's preset and, when not ``None``, its training steps.
         seed: seeds the clips, the PAE, the weights, the batches and the noise.
@@ -132,13 +134,18 @@ class ControllerConfig:
     optimizer: str = "adam"
     phase_noise: float = 0.1
     phase_dropout: float = 0.2
+    unroll: int = 6
+    unroll_steps: int = 600
     blend_radius: float = 1.0
     phase_scale: str = "toy"
     phase_steps: Optional[int] = None
     seed: int = 0
 
     def __post_init__(self):
-        check_positive_ints(self, ("clips", "hidden", "gating_hidden", "n_experts", "steps", "batch_size"))
+        check_positive_ints(self, ("clips", "hidden", "gating_hidden", "n_experts", "steps", "batch_size", "unroll"))
+        if isinstance(self.unroll_steps, bool) or not isinstance(self.unroll_steps, int) \
+                or not 0 <= self.unroll_steps <= self.steps:
+            raise ValueError(f"unroll_steps: expected an int in [0, steps={self.steps}], got {self.unroll_steps!r}")
         for name in ("lr", "blend_radius"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name}: expected a positive number, got {getattr(self, name)!r}")
@@ -234,11 +241,13 @@ class ControllerData(NamedTuple):
     Attributes:
         x: (N, in) the inputs (goal phase without noise). y: (N, out) the targets.
         phase_variance: (C, 3) ``σ̄``, the variance of ``[S, A, F]`` over the frames.
+        clip: (N,) long, the clip of each frame (frames of a clip are consecutive); None: one clip.
     """
 
     x: torch.Tensor
     y: torch.Tensor
     phase_variance: torch.Tensor
+    clip: Optional[torch.Tensor] = None
 
 
 def _pose(joints, velocities, origin, frame):
@@ -291,6 +300,17 @@ def clip_features(clip: Motion, pae: PhaseAutoencoder) -> tuple[torch.Tensor, to
     return x.float(), y.float(), states
 
 
+def _next_future(ego: torch.Tensor, update: torch.Tensor) -> torch.Tensor:
+    """(B, 7, 4) the root trajectory input of ``t + 1`` (position, forward; root frame of ``t + 1``) from the
+    predicted egocentric root samples ``ego`` (B, 7·4·9, root frame of ``t``) and root update ``(dx, dy, dyaw)``."""
+    B = ego.shape[0]
+    root_p, root_r = _decode(ego.reshape(B, len(FUTURE_OFFSETS), len(KEY_JOINTS), TRANSFORM)[:, :, 0])
+    turn = rotation_about_z(update[:, 2])[:, :2, :2]  # (B, 2, 2): the frame of t + 1 seen from t
+    position = torch.einsum("bji,bsj->bsi", turn, root_p[..., :2] - update[:, None, :2])
+    forward = torch.einsum("bji,bsj->bsi", turn, root_r[..., :2, 1])
+    return torch.cat([position, forward], dim=-1)
+
+
 def _wrapped(angle: torch.Tensor) -> torch.Tensor:
     """Angles wrapped into [−π, π)."""
     return torch.remainder(angle + math.pi, 2 * math.pi) - math.pi
@@ -301,7 +321,8 @@ def controller_data(config: ControllerConfig, pae: PhaseAutoencoder) -> Controll
     clips = mocap.generate_dataset(config.clips, seed=config.seed, kinds=("reach_grasp",))
     parts = [clip_features(clip, pae) for clip in clips]
     states = torch.cat([s for _, _, s in parts])
-    return ControllerData(torch.cat([x for x, _, _ in parts]), torch.cat([y for _, y, _ in parts]), states.var(0))
+    clip = torch.cat([torch.full((len(x),), i, dtype=torch.long) for i, (x, _, _) in enumerate(parts)])
+    return ControllerData(torch.cat([x for x, _, _ in parts]), torch.cat([y for _, y, _ in parts]), states.var(0), clip)
 
 
 # ----------------------------------------------------------------------------- the network
@@ -373,7 +394,14 @@ def _noised_goal_phase(x, layout, config: ControllerConfig, generator) -> torch.
 @single_threaded
 def train_controller(data: ControllerData, config: ControllerConfig, pae: PhaseAutoencoder, device="cpu",
                      progress: bool = False):
-    """Fit the controller to ``data`` (teacher-forced; mean squared error in standardised units).
+    """Fit the controller to ``data`` (mean squared error in standardised units).
+
+    The first ``steps − unroll_steps`` batches are teacher-forced (single frames). The last ``unroll_steps``
+    draw ``unroll`` consecutive frames of one clip and run the network on its own output: frame ``k + 1``'s
+    pose and phase inputs are the network's frame-``k`` predictions (the root trajectory, goals and goal phase
+    stay the data's), the loss averaged over the frames and back-propagated through them (ours: CHOICE trains
+    for 150 epochs and does not say how; a teacher-forced toy controller wanders off on unseen clips, the
+    autoregressive drift that scheduled sampling addresses, e.g. MVAE, Ling et al. 2020).
 
     Returns:
         ``(ControllerNet in eval mode, TrainResult)``.
@@ -384,15 +412,40 @@ def train_controller(data: ControllerData, config: ControllerConfig, pae: PhaseA
     check_shape(data.x, (None, model.in_size), "data.x")
     check_shape(data.y, (len(data.x), model.out_size), "data.y")
     model.set_statistics(data)
+    clip = data.clip if data.clip is not None else torch.zeros(len(data.x), dtype=torch.long)
+    U = config.unroll
+    starts = torch.nonzero(clip[:len(clip) - U + 1] == clip[U - 1:]).flatten() if len(clip) >= U else clip[:0]
+    if config.unroll_steps and U > 1 and len(starts) == 0:
+        raise ValueError(f"data: no clip has the {U} consecutive frames that unroll={U} needs")
+    fed = [(model.x_layout[name], model.y_layout[name]) for name in ("pose", "phase")]
+    trajectory, ego, update = model.x_layout["trajectory"], model.y_layout["ego"], model.y_layout["root_update"]
+    past = 4 * PAST // SAMPLE_STEP  # the past samples' numbers in the trajectory
+    assert fed[0][0].start == 0 and fed[0][0].stop <= trajectory.start and trajectory.stop <= fed[1][0].start
 
     def sample_batch(step, generator):
-        index = torch.randint(0, len(data.x), (config.batch_size,), generator=generator)
-        return {"x": _noised_goal_phase(data.x[index], model.x_layout, config, generator), "y": data.y[index]}
+        if step < config.steps - config.unroll_steps or U == 1:
+            index = torch.randint(0, len(data.x), (config.batch_size, 1), generator=generator)
+        else:
+            index = starts[torch.randint(0, len(starts), (config.batch_size,), generator=generator)][:, None] \
+                + torch.arange(U)
+        x = _noised_goal_phase(data.x[index.flatten()], model.x_layout, config, generator)
+        return {"x": x.reshape(*index.shape, -1), "y": data.y[index]}
 
     def loss_fn(net, batch):
-        xn = (batch["x"] - net.x_mean) / net.x_std
+        xn = (batch["x"] - net.x_mean) / net.x_std  # (B, U, in)
         yn = (batch["y"] - net.y_mean) / net.y_std
-        return (net.forward_standardised(xn) - yn).square().mean()
+        loss, x = 0.0, xn[:, 0]
+        for k in range(xn.shape[1]):
+            out = net.forward_standardised(x)
+            loss = loss + (out - yn[:, k]).square().mean()
+            if k + 1 < xn.shape[1]:  # the next frame sees the predicted pose, phase and future root trajectory
+                y = out * net.y_std + net.y_mean
+                x = xn[:, k + 1] * net.x_std + net.x_mean
+                x = torch.cat([y[:, fed[0][1]], x[:, fed[0][0].stop:trajectory.start + past],
+                               _next_future(y[:, ego], y[:, update]).flatten(1), x[:, trajectory.stop:fed[1][0].start],
+                               y[:, fed[1][1]], x[:, fed[1][0].stop:]], dim=-1)
+                x = (x - net.x_mean) / net.x_std
+        return loss / xn.shape[1]
 
     result = train(model, sample_batch, loss_fn, trainer_config(config, device=device, progress=progress))
     return model.eval(), result
@@ -511,6 +564,29 @@ def clip_goal(model: ControllerNet, clips) -> Goal:
     return Goal(positions.float(), rotations.float(), state.float(), hand)
 
 
+def toward_goal(state: ControllerState, goal: Goal, speed: float = 1.0) -> ControllerState:
+    """``state`` with its future root trajectory on the straight line to the goal's root (the goal window's
+    centre), walked at ``speed`` m/s and stopping there, facing along the line (facing the goal root's heading
+    once on it). Ours: the start of a rollout, where no trajectory has been predicted yet; CHOICE's
+    navigation (§6.2) brings the character near its goal, and a standing start is a fixed point the toy
+    controller may not leave."""
+    if not speed > 0:
+        raise ValueError(f"speed: expected a positive number of m/s, got {speed!r}")
+    B = state.origin.shape[0]
+    frame = rotation_about_z(state.heading)
+    target = goal.positions[:, WINDOW // 2, 0]  # (B, 3) the root's goal, world
+    local = torch.einsum("bji,bj->bi", frame, target - state.origin)[:, :2]
+    distance = local.norm(dim=-1, keepdim=True)
+    direction = local / distance.clamp_min(1e-6)
+    travelled = torch.minimum(speed * FUTURE_OFFSETS.float()[None] / FPS, distance)  # (B, 7)
+    position = direction[:, None] * travelled[..., None]
+    goal_forward = torch.einsum("bji,bj->bi", frame, goal.rotations[:, WINDOW // 2, 0, :, 1])[:, :2]
+    arrived = (travelled >= distance - 1e-6)[..., None]
+    forward = torch.where(arrived, goal_forward[:, None].expand(B, len(FUTURE_OFFSETS), 2),
+                          direction[:, None].expand(B, len(FUTURE_OFFSETS), 2))
+    return state._replace(future=torch.cat([position, forward], dim=-1))
+
+
 def _deviation(ego: torch.Tensor, goal_centric: torch.Tensor) -> np.ndarray:
     """``c`` of Eq. 22 (``kalman.bidirectional_deviation``) per sample, (B, 7): the 6D rotations decoded in
     float64 so that they are orthonormal to its tolerance."""
@@ -546,7 +622,8 @@ def controller_step(model: ControllerNet, state: ControllerState, goal: Goal, go
         goal_phase: (B, 3C) the goal phase features fed to the network (Eq. 13 without noise; zeros for ``"none"``).
         blend_radius: metres; the weight of ``G T^inv`` is ``clip(1 − d / blend_radius, 0, 1)``.
     Returns:
-        ``(state at t + 1, outputs)``; ``outputs``: ``wrist`` (B, 2, 3) world wrists at ``t + 1``,
+        ``(state at t + 1, outputs)``; ``outputs``: ``joints`` (B, 22, 3) and ``wrist`` (B, 2, 3) world
+        positions at ``t + 1``,
         ``ego`` / ``goal_centric`` / ``blended`` (B, 7, 4, 9) key-joint trajectories in the root frame of ``t``
         (``goal_centric`` mapped by Eq. 14), ``blend`` (B,), ``deviation`` (B,) ``c`` of Eq. 22,
         ``goal`` (B, 13, 4, 9) the goal estimate, ``goal_phase_state`` (B, C, 3) its ``[S, A, F]``.
@@ -589,8 +666,9 @@ def controller_step(model: ControllerNet, state: ControllerState, goal: Goal, go
     history = torch.cat([state.history[:, 1:], _ground(origin, heading)[:, None]], dim=1)
     next_state = ControllerState(origin, heading, out["pose"], history, future, out["phase"])
     joints = out["pose"][:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3)
-    wrist = torch.einsum("bij,bkj->bki", new_frame, joints[:, list(_WRISTS)]) + origin[:, None]
-    outputs = {"wrist": wrist, "ego": ego, "goal_centric": goal_centric, "blended": blended, "blend": blend,
+    world = torch.einsum("bij,bkj->bki", new_frame, joints) + origin[:, None]
+    wrist = world[:, list(_WRISTS)]
+    outputs = {"joints": world, "wrist": wrist, "ego": ego, "goal_centric": goal_centric, "blended": blended, "blend": blend,
                "deviation": torch.as_tensor(deviation, dtype=torch.float32),
                "goal": out["goal"].reshape(B, WINDOW, len(KEY_JOINTS), TRANSFORM),
                "goal_phase_state": phase_state(out["goal_phase"])}
@@ -601,6 +679,7 @@ class Rollout(NamedTuple):
     """What :func:`rollout` records, frame by frame (``N`` frames).
 
     Attributes:
+        joints: (N, B, 22, 3) world joint positions after each step (metres).
         wrist: (N, B, 2, 3) world wrist positions after each step.
         origin: (N, B, 3) the root.
         goal_phase: (N, B, 3C) the goal phase features fed to the network at each step.
@@ -609,6 +688,7 @@ class Rollout(NamedTuple):
         state: the final :class:`ControllerState`.
     """
 
+    joints: torch.Tensor
     wrist: torch.Tensor
     origin: torch.Tensor
     goal_phase: torch.Tensor
@@ -653,6 +733,6 @@ def rollout(model: ControllerNet, state: ControllerState, goal: Goal, frames: in
                                                       out["deviation"].double().numpy()[:, None], filter_config,
                                                       matched_goal=goal.phase.double().numpy(),
                                                       use_matched=active[:, None])
-        records.append((out["wrist"], state.origin, fed, out["goal_phase_state"], out["deviation"]))
-    wrist, origin, fed, predicted, deviation = (torch.stack(v) for v in zip(*records))
-    return Rollout(wrist, origin, fed, predicted, deviation, state)
+        records.append((out["joints"], out["wrist"], state.origin, fed, out["goal_phase_state"], out["deviation"]))
+    joints, wrist, origin, fed, predicted, deviation = (torch.stack(v) for v in zip(*records))
+    return Rollout(joints, wrist, origin, fed, predicted, deviation, state)

@@ -47,6 +47,9 @@ __all__ = [
     "motion_measures",
     "KEY_JOINT_TASKS",
     "label_distribution",
+    "TABLE4_ROWS",
+    "straight_approach_goal",
+    "table4_runs",
 ]
 
 
@@ -400,3 +403,131 @@ def label_distribution(motions) -> list:
         value = seconds - walking if labels is None else sum(counts[ACTIONS.index(a)] for a in labels)
         rows.append((action, task, float(value), 100.0 * float(value) / seconds))
     return rows
+
+
+# ----------------------------------------------------------------------------- Table 4's runs (§8.3.1)
+
+TABLE4_ROWS = ("w/ KF + cuRobo", "w/o goal phase", "w/ matched goal", "w/ predicted goal", "w/ KF goal")
+_ROW_VARIANT = {"w/ KF + cuRobo": "kalman", "w/o goal phase": "none", "w/ matched goal": "matched",
+                "w/ predicted goal": "predicted", "w/ KF goal": "kalman"}
+
+
+class _Joints:
+    """A bare ``(joints, fps)`` motion for :func:`motion_measures`."""
+
+    def __init__(self, joints, fps):
+        self.joints, self.fps = joints, fps
+
+
+def straight_approach_goal(goal, hand):
+    """The goal with the working wrist's approach (the window's samples before the keyframe) replaced by the
+    minimum-jerk path between the same two ends (``baselines.minimum_jerk_plan`` without obstacles: the
+    cuRobo stand-in's straight move; rotations kept).
+
+    Args:
+        goal: ``controller.Goal`` (positions (B, 13, 4, 3)).
+        hand: (B,) 0 left, 1 right.
+    Returns:
+        a new ``controller.Goal``.
+    """
+    from . import baselines
+    from .controller import WINDOW
+
+    positions = goal.positions.clone()
+    centre = WINDOW // 2
+    for b in range(positions.shape[0]):
+        k = 2 + int(hand[b])
+        path = baselines.minimum_jerk_plan(positions[b, 0, k].double().numpy(), positions[b, centre, k].double().numpy(),
+                                           centre + 1)
+        positions[b, :centre + 1, k] = torch.as_tensor(path, dtype=positions.dtype)
+    return goal._replace(positions=positions)
+
+
+def table4_runs(controller_config, *, clips: int = 12, after: int = 15, seed: int = 0) -> dict:
+    """The controller's variants of Table 4 on unseen reach-and-grasp clips, run once and then loaded from the cache.
+
+    Each held-out clip (``world.mocap`` with the seed ``10 000 + seed``, never trained on) gives a start (its
+    first frame, the future root trajectory on the straight line to the goal, ``controller.toward_goal``) and a goal (its grasp keyframe, ``controller.clip_goal``: the recorded key joints over the 2 s
+    window, whose first half is the wrist's recorded approach — ours: it stands in for the INTP plan of the
+    paper). Each row drives all clips in one batch from the start for ``anchor + after`` frames:
+    ``"w/o goal phase"``, ``"w/ matched goal"``, ``"w/ predicted goal"`` and ``"w/ KF goal"`` are
+    ``controller.rollout``'s four goal-phase sources; ``"w/ KF + cuRobo"`` is the Kalman one with the wrist's
+    approach replaced by the straight minimum-jerk path (:func:`straight_approach_goal`). The ``"Dataset"`` row
+    measures the held-out clips themselves over the same frames.
+
+    Measures (:func:`motion_measures`, each clip cut at its own ``anchor + after``; the working wrist's RMS
+    curvature over the approach, frames ``[0, anchor]``): means over clips (sliding over the clips with a planted
+    foot, ``"planted clips"``); the Fréchet distance pools every
+    clip's 2 s windows of a row against those of the training clips (the dataset row's FD is the held-out
+    clips' own, a floor). ``reach`` is the working wrist's closest approach to its grasp (metres).
+
+    Returns:
+        ``{"rows": {row: {"Unsmth.", "Slid.", "FD", "EE RMSC", "planted clips", "reach" (clips,),
+        "joints" [(T_i, 22, 3)]}},
+        "hands" (clips,), "anchors" (clips,), "seconds" (per row, the rollout's wall time), "steps"}``.
+    """
+    import dataclasses
+    import sys
+
+    from .. import metrics
+    from ..world import mocap
+    from ..world.motion import FPS
+    from . import controller, kalman, phase
+
+    if isinstance(clips, bool) or not isinstance(clips, int) or clips < 1:
+        raise ValueError(f"clips: expected a positive int, got {clips!r}")
+    if isinstance(after, bool) or not isinstance(after, int) or after < 0:
+        raise ValueError(f"after: expected an int >= 0 (frames after the grasp), got {after!r}")
+
+    def build():
+        trained = controller.trained_controller(controller_config)
+        model = trained.model
+        test = mocap.generate_dataset(clips, seed=10_000 + int(seed), kinds=("reach_grasp",))
+        train = mocap.generate_dataset(controller_config.clips, seed=controller_config.seed, kinds=("reach_grasp",))
+        anchors = np.array([int(c.meta["anchor_frame"]) for c in test])
+        ends = np.minimum(anchors + after, [len(c) - 1 for c in test])
+        hands = np.array([int(c.meta["hand"] == "right") for c in test])
+        reference = np.concatenate([pose_window_features(c) for c in train])
+        goal = controller.clip_goal(model, test)
+        state = controller.toward_goal(controller.initial_state(model, test), goal)
+        frames = int(ends.max())
+        rows, seconds = {}, {}
+
+        def measure(motions):
+            per = [motion_measures(m, None, [(0, int(a) + 1)], ("left", "right")[h])
+                   for m, a, h in zip(motions, anchors, hands)]
+            out = {k: float(np.nanmean([p[k] for p in per])) for k in ("Unsmth.", "Slid.", "EE RMSC")}
+            out["planted clips"] = int(np.sum(np.isfinite([p["Slid."] for p in per])))
+            out["FD"] = float(metrics.frechet_distance(np.concatenate([pose_window_features(m) for m in motions]),
+                                                       reference))
+            return out
+
+        for row in TABLE4_ROWS:
+            g = straight_approach_goal(goal, hands) if row == "w/ KF + cuRobo" else goal
+            clock = time.perf_counter()
+            run = controller.rollout(model, state, g, frames, _ROW_VARIANT[row], controller_config.blend_radius)
+            seconds[row] = time.perf_counter() - clock
+            # frame 0 is the start; step i gives frame i + 1
+            first = torch.stack(_start_joints(test))
+            joints = torch.cat([first[None], run.joints], dim=0).double().numpy()  # (frames + 1, B, 22, 3)
+            motions = [_Joints(joints[:e + 1, b], FPS) for b, e in enumerate(ends)]
+            rows[row] = measure(motions)
+            reach = [np.linalg.norm(joints[:e + 1, b, controller._WRISTS[h]]
+                                    - goal.positions[b, controller.WINDOW // 2, 2 + h].double().numpy(), axis=-1).min()
+                     for b, (e, h) in enumerate(zip(ends, hands))]
+            rows[row]["reach"] = np.asarray(reach)
+            rows[row]["joints"] = [m.joints for m in motions]
+        dataset = [_Joints(c.joints[:e + 1].double().numpy(), FPS) for c, e in zip(test, ends)]
+        rows["Dataset"] = measure(dataset)
+        rows["Dataset"]["reach"] = np.zeros(len(test))
+        rows["Dataset"]["joints"] = [m.joints for m in dataset]
+        return {"rows": rows, "hands": hands, "anchors": anchors, "seconds": seconds, "steps": frames}
+
+    key = {"controller": dataclasses.asdict(controller_config), "clips": clips, "after": after, "seed": int(seed)}
+    return load_or_build("choice_table4", key, build,
+                         code=(sys.modules[__name__], controller, kalman, phase, mocap, metrics))
+
+
+def _start_joints(clips):
+    """(B, 22, 3): each clip's first frame."""
+    return [c.joints[0].float() for c in clips]

@@ -1,0 +1,60 @@
+"""Time one step of CHOICE's goal-driven controller at run time with the Kalman-filtered goal phase
+(§5.1–5.2, Algorithm 1): batch 1, CPU — the network, Eq. 14's blend, Eq. 22's deviation and one
+``kalman.filter_step`` — as ``controller.rollout`` runs it, frame after frame.
+
+The weights are freshly initialised (speed does not depend on training); sizes are the ``toy``
+preset's unless ``--scale`` says otherwise. It measures and never gates (exit code 0). The target is
+600 steps/s, ten times the paper's 60 fps real time.
+
+    python scripts/bench_choice_controller.py                  # toy sizes, 1 thread, 600 steps
+    python scripts/bench_choice_controller.py --scale paper --threads 2 --variant none
+"""
+import argparse
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
+
+import torch  # noqa: E402
+
+from hoi_tutorial.choice import controller, phase  # noqa: E402
+from hoi_tutorial.infra import threads_allowed  # noqa: E402
+from hoi_tutorial.world import mocap  # noqa: E402
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--scale", default="toy", choices=("toy", "small", "paper"))
+    parser.add_argument("--variant", default="kalman", choices=controller.VARIANTS)
+    parser.add_argument("--steps", type=int, default=600)
+    parser.add_argument("--threads", type=int, default=1)
+    args = parser.parse_args()
+    torch.set_num_threads(args.threads)
+    config = controller.controller_config(args.scale)
+    torch.manual_seed(0)
+    pae = phase.build_phase_autoencoder(phase.phase_config(config.phase_scale)).eval()
+    model = controller.build_controller(config, pae).eval()
+    clip = mocap.generate_dataset(1, seed=0, kinds=("reach_grasp",))
+    state, goal = controller.initial_state(model, clip), controller.clip_goal(model, clip)
+    controller.rollout(model, state, goal, 20, args.variant)  # warm-up
+    with threads_allowed(args.threads):
+        t0 = time.perf_counter()
+        controller.rollout(model, state, goal, args.steps, args.variant)
+        seconds = time.perf_counter() - t0
+    x = torch.zeros(1, model.in_size)
+    with torch.no_grad(), threads_allowed(args.threads):
+        t0 = time.perf_counter()
+        for _ in range(args.steps):
+            model(x)
+        network = time.perf_counter() - t0
+    print(f"controller ({args.scale}, {sum(p.numel() for p in model.net.parameters()):,} parameters, "
+          f"{args.threads} thread(s)), goal phase '{args.variant}', batch 1, {args.steps} steps")
+    print(f"  whole step (network, Eq. 14 blend, Eq. 22 deviation, filter): {args.steps / seconds:7.0f} steps/s"
+          f"  ({1e3 * seconds / args.steps:.2f} ms)")
+    print(f"  the network alone:                                           {args.steps / network:7.0f} steps/s")
+    print("  target: 600 steps/s (10x the paper's 60 fps)")
+
+
+if __name__ == "__main__":
+    main()
