@@ -197,3 +197,20 @@ def test_toward_goal_walks_the_straight_line(trained, start):
         along = steps[b] @ direction
         assert bool((along >= -1e-6).all()) and bool((along <= 5 / 30 + 1e-6).all())  # 1 m/s, never backwards
         assert float(moved.future[b, -1, :2].norm()) <= float(target[b].norm()) + 1e-5  # stops at the goal
+
+
+def test_blended_pose_carries_the_previous_pose_into_the_next_root_frame(trained, clips):
+    """With the data's next pose as the prediction, the kept pose stays within a centimetre of it: the previous
+    joints, moved into the next root frame by the root update and on by the velocities, land where the data is."""
+    model = trained.model
+    x, y, _ = ctl.clip_features(clips[0], model.phase_model)
+    previous, nxt = x[:, model.x_layout["pose"]].double(), y[:, model.y_layout["pose"]].double()
+    update = y[:, model.y_layout["root_update"]].double()
+    kept = ctl.blended_pose(previous, nxt, update)
+    error = (kept[:, :66] - nxt[:, :66]).reshape(-1, 22, 3).norm(dim=-1)
+    assert float(error.mean()) < 0.01
+    assert torch.equal(kept[:, 66:], nxt[:, 66:])  # the velocities are the prediction's
+    wrong = ctl.blended_pose(previous, nxt, update * torch.tensor([1.0, 1.0, -1.0]).double())  # the turn reversed
+    turning = update[:, 2].abs() > 0.02
+    if bool(turning.any()):
+        assert float((wrong[turning, :66] - nxt[turning, :66]).abs().max()) > float(error[turning].max())

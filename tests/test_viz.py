@@ -13,6 +13,7 @@ from hypothesis import given  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 from matplotlib.animation import FuncAnimation  # noqa: E402
 from matplotlib.collections import LineCollection, PolyCollection  # noqa: E402
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 from hoi_tutorial import viz  # noqa: E402
 from hoi_tutorial.viz import animation as viz_animation  # noqa: E402
@@ -376,6 +377,30 @@ def test_show_animation_closes_its_figure(small_motion):
     html = viz.show_animation(anim)
     assert "<script" in html.data
     assert not plt.fignum_exists(number)
+
+
+def test_animation_moves_its_moving_objects(small_motion, chair):
+    calls = []
+
+    def moved(frame):  # the chair slides along x, one centimetre a frame
+        calls.append(frame)
+        shift = np.eye(4)
+        shift[0, 3] = 0.01 * frame
+        return chair.with_pose(shift @ chair.pose)
+
+    anim = viz.animate_motion(small_motion, moving_objects=[moved], stride=1, figsize=(3, 3), dpi=40)
+    collection = [c for c in anim._fig.axes[0].collections if isinstance(c, Poly3DCollection)][-1]
+    anim._func(0)
+    first = np.array(collection._faces).copy()  # (faces, 3, 3) the 3D vertices
+    anim._func(10)
+    shift = np.array(collection._faces) - first
+    assert 10 in calls
+    np.testing.assert_allclose(shift[..., 0], 0.10, atol=1e-6)  # every vertex moved 10 cm along x
+    np.testing.assert_allclose(shift[..., 1:], 0.0, atol=1e-9)
+    with pytest.raises(ValueError, match="moving_objects: expected view='3d'"):
+        viz.animate_motion(small_motion, view="top", moving_objects=[moved])
+    with pytest.raises(ValueError, match="moving_objects: expected callables"):
+        viz.animate_motion(small_motion, moving_objects=[chair])
 
 
 def test_animation_rejects_bad_input(standing_joints):

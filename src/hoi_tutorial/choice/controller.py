@@ -42,13 +42,17 @@ Choices the paper does not state, ours:
 - The filter starts from the matched goal phase with ``P = 0`` (Algorithm 1 initialises the goal
   on the click; the paper's ``G^p = 0`` would feed a zero goal phase at first). ``"predicted"`` starts
   from the matched phase too.
-- Training is teacher-forced (no scheduled sampling); inputs and outputs are standardised with the
-  training data's mean and std; the loss is the mean squared error in those units.
-- A rollout starts with a standing future root trajectory (the current root repeated).
+- Training is teacher-forced, then, for its last ``unroll_steps``, unrolled over ``unroll`` frames on the
+  network's own pose, phase and future root trajectory (:func:`train_controller`); inputs and outputs are
+  standardised with the training data's mean and std; the loss is the mean squared error in those units.
+- At run time each joint moves half-way from its previous position carried by the predicted velocity to the
+  predicted position (``POSE_BLEND``, :func:`blended_pose`), as Starke et al.'s released controllers do.
+- A rollout starts with the future root trajectory on the straight line to the goal's root at 1 m/s
+  (:func:`toward_goal`; a standing start is a fixed point the toy controller may not leave).
 
-Measured at toy (one CPU thread): 24 clips, 4 203 frames, 3000 steps in about 20 s. From the first frame
-of six training clips every variant brings the working wrist from 1.5–2.2 m to 0.15–0.9 m of the grasp by
-the grasp frame; on six unseen clips four get there and two wander off (teacher forcing only).
+Measured at toy (one CPU thread): 48 clips, about 8 400 frames, 3000 steps (the last 600 unrolled over 6 frames)
+in about 45 s. On 12 unseen reaches the working wrist comes within a median 0.1–0.3 m of its grasp (Table 4's
+runs, ``evaluation.table4_runs``); a few characters stop short or walk past their goal.
 
 Scaling (paper → toy): 8 PAE channels → 4 (``phase``); gating 3 × 128 → 2 × 64 hidden + output, main
 network 3 × 512 → 3 × 128; experts (not stated in CHOICE; DeepPhase 8) → 4; 70 % of 150 sequences for
@@ -84,7 +88,8 @@ __all__ = [
     "ControllerConfig", "CONTROLLER_SCALES", "controller_config",
     "key_joint_transforms", "goal_phase_features", "phase_state",
     "ControllerData", "clip_features", "controller_data", "ControllerNet", "build_controller", "train_controller",
-    "trained_controller", "ControllerState", "Goal", "initial_state", "clip_goal", "toward_goal", "controller_step",
+    "trained_controller", "ControllerState", "Goal", "initial_state", "clip_goal", "toward_goal", "POSE_BLEND",
+    "blended_pose", "controller_step",
     "Rollout", "rollout",
 ]
 
@@ -97,6 +102,9 @@ WINDOW_OFFSETS = SAMPLE_STEP * (torch.arange(WINDOW) - WINDOW // 2)  # (13,) fra
 FUTURE_OFFSETS = SAMPLE_STEP * torch.arange(WINDOW // 2 + 1)  # (7,) a 1 s future window from t + 1
 PAST = int(-WINDOW_OFFSETS[0])  # frames of root history the input needs
 TRANSFORM = 9  # a key joint's position (3) and 6D rotation (6)
+# Each joint's next position at run time: the prediction blended half-half with the previous position moved by
+# the predicted velocity, as Starke et al.'s released controllers (MANN, NSM, DeepPhase) do; CHOICE is silent.
+POSE_BLEND = 0.5
 _PELVIS, _WRISTS = joint_index("pelvis"), (joint_index("left_wrist"), joint_index("right_wrist"))
 
 
@@ -122,7 +130,7 @@ class ControllerConfig:
         seed: seeds the clips, the PAE, the weights, the batches and the noise.
     """
 
-    clips: int = 24
+    clips: int = 48
     hidden: int = 128
     gating_hidden: int = 64
     n_experts: int = 4
@@ -300,6 +308,22 @@ def clip_features(clip: Motion, pae: PhaseAutoencoder) -> tuple[torch.Tensor, to
     return x.float(), y.float(), states
 
 
+def blended_pose(previous: torch.Tensor, predicted: torch.Tensor, update: torch.Tensor) -> torch.Tensor:
+    """The pose of ``t + 1`` a step keeps (B, 132), root frame of ``t + 1``: each joint ``POSE_BLEND`` of the way
+    from its previous position moved by the predicted velocity to the predicted position; the predicted velocities.
+
+    Args:
+        previous: (B, 132) the pose of ``t`` (root frame of ``t``). predicted: (B, 132) the network's pose of
+            ``t + 1`` (root frame of ``t + 1``). update: (B, 3) the root's ``(dx, dy, dyaw)`` (root frame of ``t``).
+    """
+    n = NUM_JOINTS * 3
+    turn = rotation_about_z(update[:, 2])  # the frame of t + 1 seen from t
+    shift = torch.cat([update[:, :2], torch.zeros_like(update[:, :1])], dim=-1)
+    moved = torch.einsum("bji,bkj->bki", turn, previous[:, :n].reshape(-1, NUM_JOINTS, 3) - shift[:, None])
+    carried = moved.flatten(1) + predicted[:, n:] / FPS
+    return torch.cat([(1 - POSE_BLEND) * carried + POSE_BLEND * predicted[:, :n], predicted[:, n:]], dim=-1)
+
+
 def _next_future(ego: torch.Tensor, update: torch.Tensor) -> torch.Tensor:
     """(B, 7, 4) the root trajectory input of ``t + 1`` (position, forward; root frame of ``t + 1``) from the
     predicted egocentric root samples ``ego`` (B, 7·4·9, root frame of ``t``) and root update ``(dx, dy, dyaw)``."""
@@ -398,10 +422,12 @@ def train_controller(data: ControllerData, config: ControllerConfig, pae: PhaseA
 
     The first ``steps − unroll_steps`` batches are teacher-forced (single frames). The last ``unroll_steps``
     draw ``unroll`` consecutive frames of one clip and run the network on its own output: frame ``k + 1``'s
-    pose and phase inputs are the network's frame-``k`` predictions (the root trajectory, goals and goal phase
-    stay the data's), the loss averaged over the frames and back-propagated through them (ours: CHOICE trains
-    for 150 epochs and does not say how; a teacher-forced toy controller wanders off on unseen clips, the
-    autoregressive drift that scheduled sampling addresses, e.g. MVAE, Ling et al. 2020).
+    pose, phase and future root trajectory are the network's frame-``k`` predictions (the past root trajectory,
+    goals and goal phase stay the data's), the loss averaged over the frames and back-propagated through them
+    (ours: CHOICE trains for 150 epochs and does not say how; a teacher-forced toy controller wanders off on
+    unseen clips, the autoregressive drift that scheduled sampling addresses, e.g. MVAE, Ling et al. 2020).
+    At run time :func:`controller_step` also blends the pose (:func:`blended_pose`); training feeds the raw
+    prediction back (measured at toy: blending in training too gave runaway rollouts with seed 1).
 
     Returns:
         ``(ControllerNet in eval mode, TrainResult)``.
@@ -432,20 +458,19 @@ def train_controller(data: ControllerData, config: ControllerConfig, pae: PhaseA
         return {"x": x.reshape(*index.shape, -1), "y": data.y[index]}
 
     def loss_fn(net, batch):
-        xn = (batch["x"] - net.x_mean) / net.x_std  # (B, U, in)
-        yn = (batch["y"] - net.y_mean) / net.y_std
-        loss, x = 0.0, xn[:, 0]
-        for k in range(xn.shape[1]):
-            out = net.forward_standardised(x)
+        yn = (batch["y"] - net.y_mean) / net.y_std  # (B, U, out)
+        loss, x = 0.0, batch["x"][:, 0]  # the input fed at frame k, in the data's units
+        for k in range(yn.shape[1]):
+            out = net.forward_standardised((x - net.x_mean) / net.x_std)
             loss = loss + (out - yn[:, k]).square().mean()
-            if k + 1 < xn.shape[1]:  # the next frame sees the predicted pose, phase and future root trajectory
+            if k + 1 < yn.shape[1]:  # the next frame sees the pose, phase and future root trajectory it made
                 y = out * net.y_std + net.y_mean
-                x = xn[:, k + 1] * net.x_std + net.x_mean
-                x = torch.cat([y[:, fed[0][1]], x[:, fed[0][0].stop:trajectory.start + past],
-                               _next_future(y[:, ego], y[:, update]).flatten(1), x[:, trajectory.stop:fed[1][0].start],
-                               y[:, fed[1][1]], x[:, fed[1][0].stop:]], dim=-1)
-                x = (x - net.x_mean) / net.x_std
-        return loss / xn.shape[1]
+                data = batch["x"][:, k + 1]
+                x = torch.cat([y[:, fed[0][1]],
+                               data[:, fed[0][0].stop:trajectory.start + past],
+                               _next_future(y[:, ego], y[:, update]).flatten(1), data[:, trajectory.stop:fed[1][0].start],
+                               y[:, fed[1][1]], data[:, fed[1][0].stop:]], dim=-1)
+        return loss / yn.shape[1]
 
     result = train(model, sample_batch, loss_fn, trainer_config(config, device=device, progress=progress))
     return model.eval(), result
@@ -664,9 +689,10 @@ def controller_step(model: ControllerNet, state: ControllerState, goal: Goal, go
     next_p, next_r = _in_frame(world_p, frame[:, None] @ root_r, origin[:, None], new_frame[:, None])
     future = torch.cat([next_p[..., :2], next_r[..., :2, 1]], dim=-1)
     history = torch.cat([state.history[:, 1:], _ground(origin, heading)[:, None]], dim=1)
-    next_state = ControllerState(origin, heading, out["pose"], history, future, out["phase"])
-    joints = out["pose"][:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3)
-    world = torch.einsum("bij,bkj->bki", new_frame, joints) + origin[:, None]
+    next_state = ControllerState(origin, heading, blended_pose(state.pose, out["pose"], update), history, future,
+                                 out["phase"])
+    world = torch.einsum("bij,bkj->bki", new_frame, next_state.pose[:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3)) \
+        + origin[:, None]
     wrist = world[:, list(_WRISTS)]
     outputs = {"joints": world, "wrist": wrist, "ego": ego, "goal_centric": goal_centric, "blended": blended, "blend": blend,
                "deviation": torch.as_tensor(deviation, dtype=torch.float32),

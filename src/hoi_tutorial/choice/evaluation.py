@@ -462,8 +462,8 @@ def table4_runs(controller_config, *, clips: int = 12, after: int = 15, seed: in
     clips' own, a floor). ``reach`` is the working wrist's closest approach to its grasp (metres).
 
     Returns:
-        ``{"rows": {row: {"Unsmth.", "Slid.", "FD", "EE RMSC", "planted clips", "reach" (clips,),
-        "joints" [(T_i, 22, 3)]}},
+        ``{"rows": {row: {"Unsmth.", "Slid.", "FD", "EE RMSC", "planted clips", "per clip" {measure: (clips,)},
+        "reach" (clips,), "joints" [(T_i, 22, 3)]}},
         "hands" (clips,), "anchors" (clips,), "seconds" (per row, the rollout's wall time), "steps"}``.
     """
     import dataclasses
@@ -497,6 +497,7 @@ def table4_runs(controller_config, *, clips: int = 12, after: int = 15, seed: in
             per = [motion_measures(m, None, [(0, int(a) + 1)], ("left", "right")[h])
                    for m, a, h in zip(motions, anchors, hands)]
             out = {k: float(np.nanmean([p[k] for p in per])) for k in ("Unsmth.", "Slid.", "EE RMSC")}
+            out["per clip"] = {k: np.array([p[k] for p in per]) for k in ("Unsmth.", "Slid.", "EE RMSC")}
             out["planted clips"] = int(np.sum(np.isfinite([p["Slid."] for p in per])))
             out["FD"] = float(metrics.frechet_distance(np.concatenate([pose_window_features(m) for m in motions]),
                                                        reference))

@@ -9,7 +9,7 @@ small: a 5 s clip (75 frames) at the defaults embeds in 1.5–2.5 MB.
 from __future__ import annotations
 
 import math
-from typing import Optional, Sequence
+from typing import Callable, Optional, Sequence
 
 import matplotlib
 import matplotlib.pyplot as plt
@@ -136,7 +136,8 @@ def _frame_indices(T: int, stride: int, max_frames: int) -> tuple[np.ndarray, in
     return np.arange(0, T, stride), stride
 
 
-def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), fps: Optional[float] = None,
+def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), moving_objects: Sequence[Callable] = (),
+                   fps: Optional[float] = None,
                    stride: int = 2, trail_joint: Optional[str] = "pelvis", figsize=(5, 5), max_frames: int = 150,
                    dpi: int = 64, color_by_side: bool = True, title: Optional[str] = None,
                    elev: float = 22.0, azim: float = 60.0) -> FuncAnimation:
@@ -148,6 +149,8 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), fps: Op
         view: ``"3d"`` (perspective, ground grid, objects as see-through shaded meshes), ``"side"``
             (from +X), ``"front"`` (from +Y) or ``"top"`` (object footprints).
         objects: ``ToyObject``s or trimeshes in the world frame.
+        moving_objects: callables ``frame -> ToyObject or trimesh`` (world frame) for objects that move or
+            change shape (a door that opens, a carried bottle); ``frame`` indexes the first motion. 3D view only.
         fps: frame rate of the input clips (default: the first Motion's ``fps``, else 30); the
             animation plays in real time.
         stride: show every ``stride``-th frame (raised further so at most ``max_frames`` are drawn).
@@ -172,11 +175,16 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), fps: Op
     trail = joint_index(trail_joint) if trail_joint is not None else None
     actions = [getattr(m, "actions", None) for m in clips]
     objects = list(objects)
+    moving_objects = list(moving_objects)
+    if moving_objects and view != "3d":
+        raise ValueError(f"moving_objects: expected view='3d' (moving objects are drawn in 3D only), got {view!r}")
+    if not all(callable(m) for m in moving_objects):
+        raise ValueError("moving_objects: expected callables frame -> object")
 
     fig = plt.figure(figsize=figsize, dpi=dpi)
     colors = bone_colors(color_by_side)
     bone_idx = np.array(_BONES)
-    object_points = [_object_mesh(o)[0] for o in objects]
+    object_points = [_object_mesh(o)[0] for o in objects] + [_object_mesh(m(0))[0] for m in moving_objects]
     allpts = np.vstack([s.reshape(-1, 3) for s in seqs] + object_points)
 
     if view == "3d":
@@ -190,6 +198,11 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), fps: Op
             vertices, faces = _cluster_decimate(*_object_mesh(obj), _MAX_OBJECT_FACES)
             ax.add_collection3d(Poly3DCollection(vertices[faces], facecolors=_shaded_faces(vertices, faces),
                                                  edgecolors="none", zorder=1))
+        moving = []
+        for m in moving_objects:
+            vertices, faces = _cluster_decimate(*_object_mesh(m(0)), _MAX_OBJECT_FACES)
+            moving.append(ax.add_collection3d(Poly3DCollection(vertices[faces], facecolors=_shaded_faces(vertices, faces),
+                                                               edgecolors="none", zorder=1)))
         ax.view_init(elev=elev, azim=azim)
         skeletons = [ax.add_collection3d(Line3DCollection(s[0][bone_idx], colors=colors, linewidths=2.5, zorder=3))
                      for s in seqs]
@@ -198,6 +211,7 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), fps: Op
         trails = [ax.plot([], [], [], color=_TRAIL_COLORS[k % len(_TRAIL_COLORS)], linewidth=1.5, zorder=2)[0]
                   for k in range(len(seqs))] if trail is not None else []
     else:
+        moving = []
         ax = fig.add_subplot()
         for obj in objects:
             plot_object_footprint(obj, ax=ax, view=view, annotate=False)
@@ -227,6 +241,10 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), fps: Op
     def update(i: int):
         f = int(frames[i])
         labels = []
+        for collection, m in zip(moving, moving_objects):
+            vertices, faces = _cluster_decimate(*_object_mesh(m(f)), _MAX_OBJECT_FACES)
+            collection.set_verts(vertices[faces])
+            collection.set_facecolor(_shaded_faces(vertices, faces))
         for k, s in enumerate(seqs):
             fk = min(f, s.shape[0] - 1)
             pose = s[fk]
@@ -253,7 +271,7 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), fps: Op
         if labels:
             text += "   " + ", ".join(dict.fromkeys(labels))
         caption.set_text(f"{title}\n{text}" if title else text)
-        return skeletons + heads + trails + [caption]
+        return skeletons + heads + trails + moving + [caption]
 
     update(0)
     if view == "3d":
