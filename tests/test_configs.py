@@ -17,7 +17,7 @@ from hoi_tutorial.nifty import (baselines, data, evaluation, interaction_field, 
                                 toy2d, trajectories)
 from hoi_tutorial.samp import goalnet, motion_data, motionnet
 from hoi_tutorial.choice import (baselines as choice_baselines, controller, data as choice_data, environment, fields,
-                                 navigation, phase, planner, scheduler)
+                                 navigation, phase, pick_and_place, planner, scheduler)
 
 ACTIONS = ("sit", "lift")
 
@@ -48,6 +48,7 @@ FACTORIES = [
     (scheduler, "scheduler_config", scheduler.SchedulerConfig, False),
     (navigation, "navigation_config", navigation.NavigationConfig, False),
     (controller, "controller_config", controller.ControllerConfig, False),
+    (pick_and_place, "pick_and_place_config", pick_and_place.PickAndPlaceConfig, False),
 ]
 
 CASES = [(module, name, cls, scale, action)

@@ -25,12 +25,15 @@ Modules, in the order of the paper:
   K-nearest goal matching with a KD-tree (§6.1).
 - ``scheduler``: the bimanual task scheduler (Eq. 24) and the state machine of Fig. 6 (§6.3).
 - ``controller``: the goal-driven MoE controller on phase features, with the four goal-phase sources of
-  Table 4 (none, matched, predicted, Kalman-filtered) (§5.1, first version: teacher-forced training).
-
-Still to come: the pick-and-place run that joins them and Table 4 (§8.3).
+  Table 4 (none, matched, predicted, Kalman-filtered) (§5.1); ``evaluation.table4_runs`` measures them (§8.3.1).
+- ``pick_and_place``: the kitchen demo that joins navigation, the scheduler and Fig. 6's keyframes — walk to the
+  cabinet, open it with one hand, take the bottle with the other, put it on the table (§6, §8.3); its stance
+  search in ``pick_and_place_stances`` and its collision checks in ``pick_and_place_checks``. The body there is
+  posed by IK and the toy world's body planner, not yet by the controller.
 """
 from . import (baselines, controller, core, data, environment, evaluation, fields, kalman, locomotion, navigation,
-               paper_numbers, phase, planner, scheduler)
+               paper_numbers, phase, pick_and_place, pick_and_place_checks, pick_and_place_stances, planner, scheduler)
 
 __all__ = ["baselines", "controller", "core", "data", "environment", "evaluation", "fields", "kalman", "locomotion",
-           "navigation", "paper_numbers", "phase", "planner", "scheduler"]
+           "navigation", "paper_numbers", "phase", "pick_and_place", "pick_and_place_checks", "pick_and_place_stances",
+           "planner", "scheduler"]

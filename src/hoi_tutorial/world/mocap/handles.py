@@ -22,10 +22,10 @@ from .motion_math import (
 )
 from .standing import bend_params, bend_plan, choose_bend, reach_spot, standing_plan, step_feet
 
-__all__ = ["open_door", "open_drawer"]
+__all__ = ["open_door", "open_drawer", "handle_circle"]
 
 
-def _handle_circle(obj):
+def handle_circle(obj):
     """Centre ``(3,)`` (on the hinge axis, at handle height) and the swing sign of a cabinet door's handle.
 
     The handle at door angle ``q`` is ``centre + R_z(sign q) (handle(0) - centre)``.
@@ -56,7 +56,7 @@ def _handle_clip(kind: str, obj, *, betas, seed, hand, amount, approach, start_p
     heading = heading_of(facing)
     right = right_xyz(heading)
     if kind == "open_door":
-        centre, sign, handle0 = _handle_circle(closed)
+        centre, sign, handle0 = handle_circle(closed)
 
         def handle_at(q):
             rot = rot_z(sign * np.asarray(q))

@@ -1,0 +1,134 @@
+"""CHOICE's pick-and-place demo (§6, Fig. 6; ``choice.pick_and_place``): the toy kitchen's run opens the door,
+takes the bottle out and puts it on the table without collision for seeds 0, 1, 2; the schedule is co-temporal;
+the collision measure flags a door kept shut and a bottle moved through the cabinet; determinism; errors."""
+import numpy as np
+import pytest
+
+from hoi_tutorial.choice import pick_and_place as pp
+
+
+@pytest.fixture(scope="module")
+def run0(module_cache, one_cpu_thread):
+    """Seed 0, built once (the environment autoencoder trains cold into the module's cache)."""
+    return pp.pick_and_place(0)
+
+
+def _assert_completed(result):
+    checks = result.checks
+    assert checks["door_opened"] and checks["door_peak"] >= checks["door_asked"] > 0
+    assert checks["bottle_out"] and checks["placed"]
+    assert not checks["collision"]
+    assert checks["body_clearance"] >= 0 and checks["body_in_bottle"] >= 0
+    assert checks["bottle_penetration"] <= result.config.tolerance
+    assert checks["min_clearance"] >= 0
+    assert checks["door_hand_error"] < 0.02  # the door moves with the hand on its handle
+
+
+def test_seed_0_opens_takes_out_and_places_without_collision(run0):
+    _assert_completed(run0)
+    T = len(run0.motion)
+    assert run0.motion.local_rotations.shape == (T, 22, 3, 3) and run0.motion.root_position.shape == (T, 3)
+    assert run0.door_angle.shape == (T,) and run0.bottle_pose.shape == (T, 4, 4)
+    # the phases tile the motion in Fig. 6's order
+    names = [n for n, _, _ in run0.phases]
+    assert names == ["walk to cabinet", "settle at cabinet", "reach handle", "grasp handle", "open door", "lean in",
+                     "reach bottle", "grasp bottle", "take out", "release door", "stand up", "walk to table",
+                     "settle at table", "place", "release bottle"]
+    assert run0.phases[0][1] == 0 and run0.phases[-1][2] == T
+    assert all(a[2] == b[1] for a, b in zip(run0.phases[:-1], run0.phases[1:]))
+    # the door is closed until it is opened, and stays open; the bottle rests until grasped
+    start, stop = run0.phase("open door")
+    assert np.all(run0.door_angle[:start] == 0) and np.all(np.diff(run0.door_angle[start:stop]) >= -1e-12)
+    np.testing.assert_allclose(run0.door_angle[stop:], run0.checks["door_asked"])
+    grasp = run0.phase("grasp bottle")[0]
+    assert np.allclose(run0.bottle_pose[:grasp + 1], run0.kitchen.items[0].pose)
+    # the bottle ends where the scheduler's place keyframe put the grasp point
+    place = [k for k in run0.plan.keyframes if k.action == "place"][0]
+    np.testing.assert_allclose(place.position, run0.place_at)
+    table_top = run0.kitchen.furniture_of("table").to_world(np.r_[0.0, 0.0, run0.kitchen.furniture_of("table")
+                                                                  .support_surfaces[0, 0]])[2]
+    assert run0.bottle_pose[-1, 2, 3] == pytest.approx(table_top, abs=run0.config.tolerance)
+    # both walks arrived (a miss would be recorded, with the starts tried)
+    assert all(w["reached"] for w in run0.walks) and run0.walks[0]["starts_tried"]
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_seeds_1_and_2_complete_too(run0, seed):
+    _assert_completed(pp.pick_and_place(seed))
+
+
+def test_the_schedule_is_co_temporal_with_one_hand_on_each_object(run0):
+    plan = run0.plan
+    assert plan.chosen.schedule.cotemporal and len(plan.candidates) == 4  # both hands free: four schedules
+    assert plan.chosen.cost == min(c.cost for c in plan.candidates if c.feasible)
+    door_hand, bottle_hand = run0.hands["door"], run0.hands["bottle"]
+    assert door_hand != bottle_hand
+    assert door_hand == plan.chosen.schedule.auxiliary_hand and bottle_hand == plan.chosen.schedule.target_hand
+    steps = [(k.action, k.hand, k.object) for k in plan.keyframes]
+    assert steps[0][0] == "walk"
+    assert {h for a, h, o in steps if o == "cabinet door" and h} == {door_hand}
+    assert {h for a, h, o in steps if o.startswith("bottle") and h} == {bottle_hand}
+    # the door is held open while the other hand takes the bottle out (Fig. 6)
+    assert steps.index(("open", door_hand, "cabinet door")) < steps.index(("carry", bottle_hand, "bottle 0")) \
+        < steps.index(("release", door_hand, "cabinet door"))
+
+
+def test_the_collision_measure_flags_a_door_kept_shut_and_a_bottle_through_the_wall(run0):
+    T = len(run0.motion)
+    shut = pp.evaluate(run0, door_angle=np.zeros(T))
+    assert shut["collision"] and not shut["door_opened"]
+    assert shut["bottle_penetration"] > run0.config.tolerance  # the bottle goes through the closed door
+    # the bottle taken out through the cabinet's side wall instead of its front: moved sideways onto the wall
+    cabinet = run0.kitchen.furniture_of("cabinet")
+    _, x0, x1 = cabinet.support_surfaces[0, :3]
+    pose = run0.bottle_pose.copy()
+    start, stop = run0.phase("take out")
+    pose[start:stop, :3, 3] += (0.5 * (x1 - x0) + 0.5 * cabinet.params["wall_thickness"]) * cabinet.rotation[:, 0]
+    moved = pp.evaluate(run0, bottle_pose=pose)
+    assert moved["collision"] and moved["bottle_penetration"] > 0.01
+    # unchanged inputs give the run's own checks
+    fresh = pp.evaluate(run0)
+    assert all(run0.checks[k] == v for k, v in fresh.items())
+
+
+def test_the_same_seed_gives_the_same_motion(run0):
+    again = pp.pick_and_place(0)
+    assert np.array_equal(again.motion.local_rotations.numpy(), run0.motion.local_rotations.numpy())
+    assert np.array_equal(again.motion.root_position.numpy(), run0.motion.root_position.numpy())
+    assert np.array_equal(again.door_angle, run0.door_angle) and np.array_equal(again.bottle_pose, run0.bottle_pose)
+    assert again.phases == run0.phases and again.hands == run0.hands
+
+
+def test_the_kitchen_has_a_bottle_inside_the_closed_cabinet():
+    kitchen = pp.cabinet_kitchen(0)
+    cabinet, bottle = kitchen.furniture_of("cabinet"), kitchen.items[0]
+    assert kitchen.holder_of(0) is cabinet and cabinet.params["door_angle"] == 0.0 and bottle.category == "bottle"
+    lo, hi = cabinet.bounds
+    assert np.all(bottle.bounds[0] >= lo) and np.all(bottle.bounds[1] <= hi)
+    assert all(kitchen.holder_of(i) is not cabinet for i in range(1, len(kitchen.items)))
+    assert np.array_equal(pp.cabinet_kitchen(0).items[0].pose, bottle.pose)
+
+
+def test_errors_name_what_was_expected(run0):
+    for bad in (-1, True, 1.5, "0"):
+        with pytest.raises(ValueError, match="seed: expected a non-negative int"):
+            pp.pick_and_place(bad)
+        with pytest.raises(ValueError, match="seed: expected a non-negative int"):
+            pp.cabinet_kitchen(bad)
+    with pytest.raises(ValueError, match="config: expected a PickAndPlaceConfig"):
+        pp.pick_and_place(0, config={"n_starts": 2})
+    with pytest.raises(ValueError, match="n_starts: expected a positive int"):
+        pp.pick_and_place_config(n_starts=0)
+    with pytest.raises(ValueError, match="durations: expected 9 positive numbers"):
+        pp.pick_and_place_config(durations=(1.0, 2.0))
+    with pytest.raises(ValueError, match="style: expected 'squat' or 'stoop'"):
+        pp.pick_and_place_config(style="kneel")
+    with pytest.raises(TypeError):
+        pp.pick_and_place_config(speed=2.0)
+    T = len(run0.motion)
+    with pytest.raises(ValueError, match=rf"door_angle: expected shape \({T},\)"):
+        pp.evaluate(run0, door_angle=np.zeros(T + 1))
+    with pytest.raises(ValueError, match=rf"bottle_pose: expected shape \({T}, 4, 4\)"):
+        pp.evaluate(run0, bottle_pose=np.zeros((T, 3, 4)))
+    with pytest.raises(ValueError, match="name: expected one of"):
+        run0.phase("dance")
