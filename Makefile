@@ -11,6 +11,8 @@ TORCH_INDEX_URL ?=
 BOOK_FLAGS ?=
 # Extra flags for scripts/bench.py, e.g. BENCH_ARGS="--notebooks 01_toy_world --isolated".
 BENCH_ARGS ?=
+# Chapters scripts/colab_check.py executes in a bare runtime (empty: its default, chapters 01 and 02).
+COLAB_CHAPTERS ?=
 
 VENV_DIR := $(abspath $(VENV))
 VENV_BIN := $(VENV_DIR)/bin
@@ -22,7 +24,7 @@ ifdef HOI_CACHE
 export HOI_CACHE
 endif
 
-.PHONY: venv test unit-test book bench clean strip
+.PHONY: venv test unit-test book bench colab-check clean strip
 
 venv: $(STAMP)
 
@@ -58,6 +60,12 @@ book: venv
 
 bench: venv
 	PATH="$(VENV_BIN):$$PATH" $(PY) scripts/bench.py $(BENCH_ARGS)
+
+# Each chapter run the way a bare Colab runtime runs it: a fresh environment with only Colab's
+# packages, the library installed by the chapter's own set-up cell (from this checkout).
+# Select chapters with COLAB_CHAPTERS="notebooks/01_toy_world.ipynb ...".
+colab-check: venv
+	PATH="$(VENV_BIN):$$PATH" $(PY) scripts/colab_check.py $(COLAB_CHAPTERS)
 
 clean:
 	rm -rf _build .jupyter_cache jupyter_execute .pytest_cache .hypothesis

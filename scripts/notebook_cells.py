@@ -2,8 +2,9 @@
 
 Cell 1 installs the library only where ``import hoi_tutorial`` fails (a bare Colab runtime);
 it is tagged ``hide-cell`` so the rendered book folds it away. The install address is read from
-``_config.yml`` (the one place the repository URL is kept). Cell 2 is papermill's ``parameters``
-cell.
+``_config.yml`` (the one place the repository URL is kept); the environment variable
+``HOI_TUTORIAL_SOURCE``, when set, replaces it with any other ``pip install`` target, e.g. the path
+of a local checkout (``make colab-check`` uses this). Cell 2 is papermill's ``parameters`` cell.
 
 Usage: ``python scripts/notebook_cells.py notebooks/*.ipynb`` rewrites cell 1 of each notebook
 from the current ``_config.yml`` (and strips outputs); ``--check`` only reports differences.
@@ -19,6 +20,8 @@ import yaml
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SETUP_TAGS = ["hide-cell", "setup"]
+# Names the pip target that replaces the repository address in the set-up cell.
+SOURCE_VARIABLE = "HOI_TUTORIAL_SOURCE"
 
 
 def repository_url() -> str:
@@ -26,14 +29,36 @@ def repository_url() -> str:
     return config["repository"]["url"]
 
 
+def default_install_target() -> str:
+    """The pip requirement the set-up cell installs by default: the library from its repository."""
+    return f"hoi_tutorial @ git+{repository_url()}"
+
+
+def install_target(environ=None) -> str:
+    """What the set-up cell passes to ``pip install``: ``$HOI_TUTORIAL_SOURCE`` when set and not
+    empty (a local checkout, a wheel, another git address), else :func:`default_install_target`.
+
+    The set-up cell computes the same thing in its own code (it cannot import this script); a test
+    executes that code and compares it with this function.
+    """
+    import os
+
+    environ = os.environ if environ is None else environ
+    return environ.get(SOURCE_VARIABLE) or default_install_target()
+
+
 def setup_source() -> str:
-    url = repository_url()
+    """The code of cell 1. It stays a no-op wherever ``hoi_tutorial`` imports; otherwise it installs
+    ``$HOI_TUTORIAL_SOURCE`` or the repository (IPython expands ``{source}`` in the ``%pip`` line)."""
     return (
         "# Set-up for Colab: install the library only where it is missing (a no-op in CI and local builds).\n"
+        f"# {SOURCE_VARIABLE}, when set, replaces the repository address (e.g. a local checkout).\n"
         "try:\n"
         "    import hoi_tutorial  # noqa: F401\n"
         "except ImportError:\n"
-        f"    %pip install --quiet \"hoi_tutorial @ git+{url}\"\n"
+        "    import os\n"
+        f"    source = os.environ.get(\"{SOURCE_VARIABLE}\") or \"{default_install_target()}\"\n"
+        "    %pip install --quiet \"{source}\"\n"
     )
 
 
@@ -63,6 +88,8 @@ def stamp(path: Path, check: bool = False) -> bool:
     if check:
         return True
     if is_setup:
+        if "id" in first:  # keep the cell's id so a re-stamp changes only the source
+            wanted.id = first.id
         cells[0] = wanted
     else:
         cells.insert(0, wanted)

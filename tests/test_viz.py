@@ -308,7 +308,14 @@ def test_render_scene_reports_missing_opengl(monkeypatch):
 
     monkeypatch.setattr(pyvista, "Plotter", no_context)
     with pytest.raises(RuntimeError, match="EGL.*OSMesa"):
-        viz.render_scene([pyvista.Sphere()], window_size=(32, 32))
+        viz.render_scene([pyvista.Sphere()], window_size=(32, 32), on_unavailable="raise")
+    # by default a chapter goes on: a warning, and a picture that says why instead of the render
+    with pytest.warns(RuntimeWarning, match="EGL.*OSMesa"):
+        image = viz.render_scene([pyvista.Sphere()], window_size=(120, 80))
+    assert image.shape == (80, 120, 3) and image.dtype == np.uint8
+    assert (image < 100).any() and (image > 200).mean() > 0.5  # dark text on a light page
+    with pytest.raises(ValueError, match="on_unavailable"):
+        viz.render_scene([pyvista.Sphere()], on_unavailable="ignore")
 
 
 def test_render_body_with_a_chair_and_an_arrow(small_motion, chair):

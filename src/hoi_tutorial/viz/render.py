@@ -24,6 +24,8 @@ __all__ = [
     "SKIN_COLOR",
     "OBJECT_COLORS",
     "CAMERAS",
+    "RenderingUnavailable",
+    "unavailable_image",
     "render_scene",
     "render_body",
     "render_objects_grid",
@@ -70,19 +72,39 @@ def _vtk_errors_only():
         vtkLogger.SetStderrVerbosity(previous)
 
 
+class RenderingUnavailable(RuntimeError):
+    """VTK cannot render offscreen here (no OpenGL context: EGL or OSMesa missing)."""
+
+
+def unavailable_image(window_size, message: str) -> np.ndarray:
+    """A ``(height, width, 3)`` uint8 picture that says, in words, why a render is missing."""
+    import textwrap
+
+    import matplotlib
+
+    width, height = int(window_size[0]), int(window_size[1])
+    fig = matplotlib.figure.Figure(figsize=(width / 100, height / 100), dpi=100)
+    canvas = matplotlib.backends.backend_agg.FigureCanvasAgg(fig)
+    fig.patch.set_facecolor("#f4f4f0")
+    text = "3D rendering is not available here.\n\n" + "\n".join(textwrap.wrap(message, max(20, width // 8)))
+    fig.text(0.5, 0.5, text, ha="center", va="center", fontsize=max(6, min(11, width // 60)), wrap=True)
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+
+
 def _new_plotter(pyvista, window_size, background):
     try:
         plotter = pyvista.Plotter(off_screen=True, window_size=list(window_size))
         supported = plotter.ren_win.SupportsOpenGL()
     except Exception as exc:  # VTK raises several kinds when no context can be made
-        raise RuntimeError(
+        raise RenderingUnavailable(
             "offscreen rendering failed: VTK could not create an OpenGL context. It needs EGL "
             "(libEGL, e.g. apt-get install libegl1) or OSMesa (libosmesa6) on a machine without a "
             f"display. Original error: {exc}"
         ) from exc
     if not supported:
         plotter.close()
-        raise RuntimeError(
+        raise RenderingUnavailable(
             "offscreen rendering failed: VTK found no usable OpenGL (needs EGL via libegl1, or OSMesa "
             "via libosmesa6, on a machine without a display)"
         )
@@ -182,7 +204,8 @@ def _parse_arrows(arrows):
 
 
 def render_scene(meshes, *, arrows=None, points=None, camera="iso", window_size=(800, 600), background="white",
-                 ground: bool = True, return_image: bool = True, smooth_shading: bool = True):
+                 ground: bool = True, return_image: bool = True, smooth_shading: bool = True,
+                 on_unavailable: str = "note"):
     """Render meshes offscreen and return the picture.
 
     Args:
@@ -201,11 +224,16 @@ def render_scene(meshes, *, arrows=None, points=None, camera="iso", window_size=
         return_image: return the image; when False return the open ``pyvista.Plotter`` (the caller
             shows or closes it).
         smooth_shading: smooth normals (sharp box edges kept).
+        on_unavailable: when VTK cannot render offscreen (no OpenGL: EGL or OSMesa missing), ``"note"`` warns
+            and returns :func:`unavailable_image` saying why, so that a chapter goes on; ``"raise"`` raises.
     Returns:
         ``(height, width, 3)`` uint8 RGB image (or the plotter).
     Raises:
-        RuntimeError: when VTK cannot render offscreen (no OpenGL: EGL or OSMesa missing).
+        RenderingUnavailable: when VTK cannot render offscreen and ``on_unavailable="raise"`` (or
+            ``return_image=False``).
     """
+    if on_unavailable not in ("note", "raise"):
+        raise ValueError(f"on_unavailable: expected 'note' or 'raise', got {on_unavailable!r}")
     pyvista = _import_pyvista()
     if len(window_size) != 2 or min(window_size) < 1:
         raise ValueError(f"window_size: expected (width, height) in pixels, got {window_size}")
@@ -228,9 +256,17 @@ def render_scene(meshes, *, arrows=None, points=None, camera="iso", window_size=
     else:
         lo, hi = np.array([-1.0, -1.0, 0.0]), np.array([1.0, 1.0, 1.0])
     camera_pose = _camera_pose(camera, lo, hi, window_size)
-    with _vtk_errors_only():
-        return _draw(pyvista, items, arrow_items, point_items, lo, hi, camera_pose, window_size, background, ground,
-                     return_image, smooth_shading)
+    try:
+        with _vtk_errors_only():
+            return _draw(pyvista, items, arrow_items, point_items, lo, hi, camera_pose, window_size, background,
+                         ground, return_image, smooth_shading)
+    except RenderingUnavailable as exc:
+        if on_unavailable == "raise" or not return_image:
+            raise
+        import warnings
+
+        warnings.warn(str(exc), RuntimeWarning, stacklevel=2)
+        return unavailable_image(window_size, str(exc))
 
 
 def _draw(pyvista, items, arrow_items, point_items, lo, hi, camera_pose, window_size, background, ground,

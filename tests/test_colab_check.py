@@ -1,0 +1,222 @@
+"""The Colab path of the chapters: the set-up cell's install source, the check's messages, the
+declared dependencies, and (only when asked, ``HOI_COLAB_CHECK=1``) the check itself on chapter 1.
+
+The full check builds a fresh environment and executes a chapter (minutes), so ``make test`` skips
+it; run it with ``HOI_COLAB_CHECK=1 pytest tests/test_colab_check.py`` or ``make colab-check``.
+"""
+import ast
+import importlib.metadata
+import importlib.util
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import nbformat
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_URL = "hoi_tutorial @ git+https://github.com/"
+
+
+def _load(name):
+    spec = importlib.util.spec_from_file_location(name, REPO_ROOT / "scripts" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+notebook_cells = _load("notebook_cells")
+colab_check = _load("colab_check")
+
+
+# --------------------------------------------------------------------------------------------------
+# The set-up cell
+
+
+class _RecordingShell:
+    """Stands in for IPython's shell: records line magics, expanding ``{name}`` as IPython does."""
+
+    def __init__(self, namespace):
+        self.namespace = namespace
+        self.magics = []
+
+    def run_line_magic(self, name, line):
+        from IPython.utils.text import DollarFormatter
+
+        self.magics.append((name, DollarFormatter().vformat(line, args=[], kwargs=self.namespace)))
+
+
+def _run_setup_cell(monkeypatch, importable):
+    """Execute the stamped set-up cell as IPython would; return the line magics it ran."""
+    from IPython.core.inputtransformer2 import TransformerManager
+
+    code = TransformerManager().transform_cell(notebook_cells.setup_source())
+    if not importable:
+        monkeypatch.setitem(sys.modules, "hoi_tutorial", None)  # makes `import hoi_tutorial` fail
+    namespace = {}
+    shell = _RecordingShell(namespace)
+    namespace["get_ipython"] = lambda: shell
+    exec(compile(code, "<setup cell>", "exec"), namespace)
+    return shell.magics
+
+
+def test_setup_cell_is_a_no_op_where_the_library_imports(monkeypatch):
+    monkeypatch.setenv(notebook_cells.SOURCE_VARIABLE, "/somewhere/hoi_tutorial")
+    assert _run_setup_cell(monkeypatch, importable=True) == []
+
+
+def test_setup_cell_installs_the_repository_by_default(monkeypatch):
+    monkeypatch.delenv(notebook_cells.SOURCE_VARIABLE, raising=False)
+    magics = _run_setup_cell(monkeypatch, importable=False)
+    assert magics == [("pip", f'install --quiet "{notebook_cells.default_install_target()}"')]
+    assert magics[0][1].startswith(f'install --quiet "{DEFAULT_URL}')
+
+
+def test_setup_cell_honours_the_source_variable(monkeypatch):
+    monkeypatch.setenv(notebook_cells.SOURCE_VARIABLE, "/somewhere/hoi_tutorial")
+    assert _run_setup_cell(monkeypatch, importable=False) == [("pip", 'install --quiet "/somewhere/hoi_tutorial"')]
+    # An empty variable counts as unset.
+    monkeypatch.setenv(notebook_cells.SOURCE_VARIABLE, "")
+    assert _run_setup_cell(monkeypatch, importable=False)[0][1].startswith(f'install --quiet "{DEFAULT_URL}')
+
+
+def test_install_target_matches_the_cell(monkeypatch):
+    assert notebook_cells.install_target({}) == notebook_cells.default_install_target()
+    assert notebook_cells.install_target({"HOI_TUTORIAL_SOURCE": "dist/x.whl"}) == "dist/x.whl"
+    monkeypatch.setenv(notebook_cells.SOURCE_VARIABLE, "/a/checkout")
+    assert _run_setup_cell(monkeypatch, importable=False)[0][1] == (
+        f'install --quiet "{notebook_cells.install_target()}"')
+
+
+def test_every_chapter_has_the_current_setup_cell():
+    stale = [p.name for p in sorted((REPO_ROOT / "notebooks").glob("*.ipynb"))
+             if notebook_cells.stamp(p, check=True)]
+    assert not stale, "re-stamp with: python scripts/notebook_cells.py notebooks/*.ipynb"
+
+
+# --------------------------------------------------------------------------------------------------
+# The check's messages
+
+
+def _failed_notebook(ename, evalue, cell=3):
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_code_cell("pass") for _ in range(cell + 2)]
+    nb.cells[cell].outputs = [nbformat.v4.new_output("error", ename=ename, evalue=evalue, traceback=[])]
+    return nb
+
+
+def test_a_missing_module_is_named_with_where_to_declare_it():
+    nb = _failed_notebook("ModuleNotFoundError", "No module named 'skfmm'", cell=4)
+    message = colab_check.diagnose("15_choice_fields.ipynb", nb)
+    assert "15_choice_fields.ipynb (cell 4)" in message
+    assert "'skfmm'" in message
+    assert "pyproject.toml" in message and "dependencies" in message
+
+
+def test_a_missing_submodule_names_its_top_level_package():
+    nb = _failed_notebook("ModuleNotFoundError", "No module named 'sklearn.neighbors'")
+    message = colab_check.diagnose("16.ipynb", nb)
+    assert "'sklearn.neighbors'" in message and "provides 'sklearn'" in message
+
+
+def test_a_failed_install_of_the_library_is_told_apart():
+    nb = _failed_notebook("ModuleNotFoundError", "No module named 'hoi_tutorial'")
+    message = colab_check.diagnose("01_toy_world.ipynb", nb)
+    assert "set-up cell" in message and "did not install" in message
+
+
+def test_other_errors_are_reported_as_they_are():
+    nb = _failed_notebook("AssertionError", "guided walks too slow", cell=7)
+    assert colab_check.diagnose("02.ipynb", nb) == "02.ipynb (cell 7): AssertionError: guided walks too slow"
+
+
+def test_a_failure_without_a_notebook_falls_back_to_the_log():
+    log = "Traceback ...\nModuleNotFoundError: No module named 'filterpy'\n"
+    assert "'filterpy'" in colab_check.diagnose("18.ipynb", None, log)
+    assert "last output" in colab_check.diagnose("18.ipynb", None, "kernel died\n")
+
+
+# --------------------------------------------------------------------------------------------------
+# Declared dependencies cover what the chapters and the library import
+
+
+def _top_level_imports(source):
+    found = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            found.update(alias.name.split(".")[0] for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found.add(node.module.split(".")[0])
+    return found
+
+
+def _imported_modules():
+    from IPython.core.inputtransformer2 import TransformerManager
+
+    transform = TransformerManager().transform_cell
+    modules = {}
+    for path in sorted((REPO_ROOT / "src" / "hoi_tutorial").rglob("*.py")):
+        for module in _top_level_imports(path.read_text()):
+            modules.setdefault(module, path.name)
+    for path in sorted((REPO_ROOT / "notebooks").glob("*.ipynb")):
+        for cell in nbformat.read(path, as_version=4).cells:
+            if cell.cell_type == "code":
+                for module in _top_level_imports(transform(cell.source)):
+                    modules.setdefault(module, path.name)
+    return {m: where for m, where in modules.items() if m not in sys.stdlib_module_names and m != "hoi_tutorial"}
+
+
+def _normalise(name):
+    return name.lower().replace("_", "-").replace(".", "-")
+
+
+def _installed_closure(names):
+    """The declared distributions and everything they require (without extras), as installed."""
+    from packaging.requirements import Requirement
+
+    seen, todo = set(), [_normalise(n) for n in names]
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        try:
+            requires = importlib.metadata.requires(name) or []
+        except importlib.metadata.PackageNotFoundError:
+            continue
+        for line in requires:
+            requirement = Requirement(line)
+            if requirement.marker is None or requirement.marker.evaluate({"extra": ""}):
+                todo.append(_normalise(requirement.name))
+    return seen
+
+
+def test_declared_dependencies_cover_every_import():
+    tomllib = pytest.importorskip("tomllib")
+    from packaging.requirements import Requirement
+
+    project = tomllib.loads((REPO_ROOT / "pyproject.toml").read_text())["project"]
+    declared = _installed_closure(Requirement(r).name for r in project["dependencies"])
+    providers = importlib.metadata.packages_distributions()
+    missing = []
+    for module, where in sorted(_imported_modules().items()):
+        distributions = {_normalise(d) for d in providers.get(module, [])}
+        if not distributions & declared:
+            missing.append(f"{module} (imported in {where}; provided by {sorted(distributions) or 'nothing installed'})")
+    assert not missing, "imported but not in [project] dependencies: " + "; ".join(missing)
+
+
+# --------------------------------------------------------------------------------------------------
+# The check itself (minutes): only when asked
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(os.environ.get("HOI_COLAB_CHECK") != "1",
+                    reason="builds a fresh environment and runs a chapter; set HOI_COLAB_CHECK=1")
+def test_chapter_1_runs_from_its_setup_cell_alone():
+    result = subprocess.run([sys.executable, str(REPO_ROOT / "scripts" / "colab_check.py"),
+                             str(REPO_ROOT / "notebooks" / "01_toy_world.ipynb")],
+                            text=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    assert result.returncode == 0, result.stdout[-4000:]
+    assert "colab-check passed" in result.stdout
