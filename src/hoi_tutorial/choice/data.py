@@ -28,7 +28,6 @@ from __future__ import annotations
 import dataclasses
 import sys
 from dataclasses import dataclass
-from typing import Optional
 
 import numpy as np
 import torch

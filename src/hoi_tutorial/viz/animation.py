@@ -26,7 +26,6 @@ from ..world.skeleton import NUM_JOINTS, PARENTS, joint_index
 from .plots import (
     OBJECT_COLOR,
     SPINE_COLOR,
-    _VIEW_AXES,
     _VIEW_DEPTH,
     _draw_ground_grid_3d,
     _joints_sequence,
