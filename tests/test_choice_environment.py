@@ -144,3 +144,9 @@ def test_errors_name_what_was_expected(tiny):
         env.environment_config("toy", field=fields.field_config("toy", spacing=0.8 / 12))
     with pytest.raises(ValueError, match="three positive ints"):
         env.environment_config("toy", channels=(4, 8))
+
+
+def test_room_sdf_with_and_without_the_floor():
+    points = np.array([[1.0, 2.0, 0.5], [0.2, 2.0, 1.5], [1.0, 2.0, -0.1], [5.5, 1.0, 1.0]])
+    np.testing.assert_allclose(env.room_sdf((4.0, 3.0))(points), [0.5, 0.2, -0.1, -1.5])
+    np.testing.assert_allclose(env.room_sdf((4.0, 3.0), floor=False)(points), [1.0, 0.2, 1.0, -1.5])

@@ -435,3 +435,17 @@ def test_bad_inputs_raise_clear_errors():
         I.sit("chair")
     with pytest.raises(ValueError, match="betas"):
         I.sit(chair, betas=np.zeros(3))
+
+
+def test_slerp_rot_of_a_batch_equals_one_rotation_at_a_time():
+    from hoi_tutorial.world.mocap.motion_math import rot_x, rot_z, slerp_rot
+
+    r0 = np.stack([rot_z(0.3), rot_x(-1.0), rot_z(2.5) @ rot_x(0.4)])
+    r1 = np.stack([rot_x(0.7), rot_z(1.2), np.eye(3)])
+    w = np.linspace(0.0, 1.0, 5)
+    batch = slerp_rot(r0, r1, w)
+    assert batch.shape == (5, 3, 3, 3)
+    for j in range(3):
+        np.testing.assert_allclose(batch[:, j], slerp_rot(r0[j], r1[j], w), atol=1e-12)
+    np.testing.assert_allclose(batch[0], r0, atol=1e-9)
+    np.testing.assert_allclose(batch[-1], r1, atol=1e-6)

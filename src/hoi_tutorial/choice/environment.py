@@ -291,14 +291,16 @@ def floor_sdf(points) -> np.ndarray:
     return np.asarray(points, dtype=np.float64)[..., 2]
 
 
-def room_sdf(size):
+def room_sdf(size, floor: bool = True):
     """The signed distance to a room's walls and floor seen from inside, a callable ``points (..., 3) -> (...)``:
-    ``min(x, X − x, y, Y − y, z)`` for the floor ``[0, X] × [0, Y]`` (negative outside the room)."""
+    ``min(x, X − x, y, Y − y, z)`` for the floor ``[0, X] × [0, Y]`` (negative outside the room); the walls
+    alone (no ``z``) when ``floor`` is False."""
     size = np.asarray(size, dtype=np.float64).reshape(2)
 
     def sdf(points):
         p = np.asarray(points, dtype=np.float64)
-        return np.minimum.reduce([p[..., 0], size[0] - p[..., 0], p[..., 1], size[1] - p[..., 1], p[..., 2]])
+        sides = [p[..., 0], size[0] - p[..., 0], p[..., 1], size[1] - p[..., 1]]
+        return np.minimum.reduce(sides + [p[..., 2]] if floor else sides)
 
     return sdf
 

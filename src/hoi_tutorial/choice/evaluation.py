@@ -491,6 +491,7 @@ def table4_runs(controller_config, *, clips: int = 12, after: int = 15, seed: in
         goal = controller.clip_goal(model, test)
         state = controller.toward_goal(controller.initial_state(model, test), goal)
         frames = int(ends.max())
+        first = torch.stack([c.joints[0].float() for c in test])  # (B, 22, 3) frame 0, the start
         rows, seconds = {}, {}
 
         def measure(motions):
@@ -509,7 +510,6 @@ def table4_runs(controller_config, *, clips: int = 12, after: int = 15, seed: in
             run = controller.rollout(model, state, g, frames, _ROW_VARIANT[row], controller_config.blend_radius)
             seconds[row] = time.perf_counter() - clock
             # frame 0 is the start; step i gives frame i + 1
-            first = torch.stack(_start_joints(test))
             joints = torch.cat([first[None], run.joints], dim=0).double().numpy()  # (frames + 1, B, 22, 3)
             motions = [_Joints(joints[:e + 1, b], FPS) for b, e in enumerate(ends)]
             rows[row] = measure(motions)
@@ -527,8 +527,3 @@ def table4_runs(controller_config, *, clips: int = 12, after: int = 15, seed: in
     key = {"controller": dataclasses.asdict(controller_config), "clips": clips, "after": after, "seed": int(seed)}
     return load_or_build("choice_table4", key, build,
                          code=(sys.modules[__name__], controller, kalman, phase, mocap, metrics))
-
-
-def _start_joints(clips):
-    """(B, 22, 3): each clip's first frame."""
-    return [c.joints[0].float() for c in clips]

@@ -71,12 +71,12 @@ from ..infra import check_scale, scaled_config
 from ..world.kinematics import forward_kinematics, solve_limb_ik
 from ..world.mocap.body_plan import ELBOW_POLE, SIDES, PlanBody, check_betas, hand_on_point, plan_to_motion
 from ..world.mocap.handles import handle_circle
-from ..world.mocap.motion_math import forward_xyz, heading_of, min_jerk, right_xyz, rot_x, rot_z, smoothstep
+from ..world.mocap.motion_math import (forward_xyz, heading_of, min_jerk, right_xyz, rot_x, rot_z, slerp_rot,
+                                       smoothstep)
 from ..world.mocap.poses import standing_pose
 from ..world.mocap.standing import bend_params, bend_plan, chest_frames, standing_plan, step_feet
 from ..world.motion import FPS, Motion, action_id
 from ..world.objects import make_object
-from ..world.rotations import axis_angle_to_matrix, matrix_to_axis_angle
 from ..world.scenes import Kitchen, make_kitchen
 from ..world.skeleton import joint_index
 from . import environment as env
@@ -311,13 +311,6 @@ def _n(seconds: float) -> int:
     return max(2, int(round(seconds * FPS)))
 
 
-def _blend_rotations(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """(T, 22, 3, 3): from local rotations ``a`` (22, 3, 3) to ``b`` by weights ``w`` (T,) (geodesic)."""
-    rel = np.swapaxes(a, -1, -2) @ b
-    aa = matrix_to_axis_angle(torch.as_tensor(rel)).numpy()
-    return a[None] @ axis_angle_to_matrix(torch.as_tensor(aa[None] * w[:, None, None])).numpy()
-
-
 def _settle(motion_end: tuple, stance: tuple, body: PlanBody) -> Motion:
     """Blend the last walking pose ``(local (22, 3, 3), root (3,))`` into the standing pose on ``stance``
     ``(xy (2,), heading)``: root and rotations by a minimum-jerk weight (the feet slide over the gap)."""
@@ -328,15 +321,14 @@ def _settle(motion_end: tuple, stance: tuple, body: PlanBody) -> Motion:
     turn = abs(float(np.angle(np.exp(1j * (_yaw(local1[0]) - _yaw(local0[0]))))))
     n = _n(0.4 + 1.5 * gap + 0.3 * turn)
     w = min_jerk((np.arange(n) + 1) / n)
-    local = _blend_rotations(local0, local1, w)
+    local = slerp_rot(local0, local1, w)
     root = root0[None] + w[:, None] * (root1 - root0)[None]
     return Motion(torch.as_tensor(local).float(), torch.as_tensor(root).float(), betas=body.betas)
 
 
 def _yaw(rotation) -> float:
-    """Heading (radians, 0 faces +y) of a pelvis rotation (3, 3)."""
-    forward = np.asarray(rotation)[:, 1]
-    return float(np.arctan2(-forward[0], forward[1]))
+    """Heading (radians, 0 faces +y) of a pelvis rotation (3, 3): that of its forward (+y) column."""
+    return heading_of(np.asarray(rotation)[:, 1])
 
 
 def _hold_point(root, heading, side: int, hold) -> np.ndarray:

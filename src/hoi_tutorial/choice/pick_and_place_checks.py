@@ -29,6 +29,7 @@ from ..world.mocap.motion_math import rot_z
 from ..world.motion import Motion
 from ..world.scenes import Kitchen
 from ..world.skeleton import JOINT_NAMES, NUM_JOINTS, PARENTS, joint_index
+from .environment import room_sdf
 
 if TYPE_CHECKING:  # for the annotation only: the demo imports this module, not the reverse
     from .pick_and_place import PickAndPlace
@@ -89,14 +90,6 @@ def _transform(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
     return np.einsum("tij,pj->tpi", pose[:, :3, :3], points) + pose[:, None, :3, 3]
 
 
-def _walls_sdf(size):
-    size = np.asarray(size, dtype=np.float64)
-
-    def sdf(p):
-        return np.minimum.reduce([p[..., 0], size[0] - p[..., 0], p[..., 1], size[1] - p[..., 1]])
-    return sdf
-
-
 def _scene_sdf(kitchen: Kitchen, points: np.ndarray, door_angle: np.ndarray, skip_cabinet=None) -> np.ndarray:
     """(T, P) signed distance of points (T, P, 3) to the kitchen without its bottle (item 0), the cabinet at
     each frame's ``door_angle`` (T,), and the walls; ``skip_cabinet`` (T, P) bool leaves the cabinet out."""
@@ -104,7 +97,7 @@ def _scene_sdf(kitchen: Kitchen, points: np.ndarray, door_angle: np.ndarray, ski
     flat = points.reshape(-1, 3)
     cabinet = kitchen.furniture_of("cabinet")
     others = [o for o in kitchen.objects if o is not cabinet and o is not kitchen.items[0]]
-    d = _walls_sdf(kitchen.size)(flat)
+    d = room_sdf(kitchen.size, floor=False)(flat)
     for o in others:
         d = np.minimum(d, o.sdf(flat))
     d = d.reshape(T, P)

@@ -145,11 +145,13 @@ def lerp(a, b, w):
 
 
 def slerp_rot(r0, r1, w):
-    """Rotations ``(T, 3, 3)`` from ``r0 (3, 3)`` to ``r1 (3, 3)`` at weights ``w (T,)``."""
-    rel = torch.as_tensor(np.asarray(r0).T @ np.asarray(r1))
+    """Rotations ``(T, ..., 3, 3)`` from ``r0 (..., 3, 3)`` to ``r1 (..., 3, 3)`` (geodesic) at weights ``w (T,)``."""
+    r0 = np.asarray(r0)
+    rel = torch.as_tensor(np.swapaxes(r0, -1, -2) @ np.asarray(r1))
     axis_angle = matrix_to_axis_angle(rel[None]).numpy()[0]
-    steps = axis_angle_to_matrix(torch.as_tensor(np.asarray(w)[:, None] * axis_angle[None])).numpy()
-    return np.asarray(r0)[None] @ steps
+    w = np.asarray(w)
+    steps = axis_angle_to_matrix(torch.as_tensor(w.reshape(w.shape + (1,) * axis_angle.ndim) * axis_angle[None]))
+    return r0[None] @ steps.numpy()
 
 
 def minimal_rotation(p, q):
