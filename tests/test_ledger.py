@@ -112,8 +112,6 @@ def test_record_rejects_bad_input(tmp_cache):
         ledger.record("nifty.t4.samples", seed=0, scale="huge", ours="text")
     with pytest.raises(TypeError, match="seed"):
         ledger.record("nifty.t4.samples", seed=0.5, scale="toy", ours="text")
-    with pytest.raises(ValueError, match="planned"):
-        ledger.record("samp.t5.nsm", **good)
 
 
 def test_library_digest_ignores_the_ledger_and_follows_the_library():
@@ -129,14 +127,18 @@ def test_library_digest_ignores_the_ledger_and_follows_the_library():
 def test_ledger_rows_from_complete_records(tmp_cache):
     _record_all()
     _record_all(REGENERATED[:3], seed=1)
-    rows = ledger.ledger_rows(seed=0, scale="toy")
-    assert [r["claim"].key for r in rows] == [c.key for c in ledger.CLAIMS]
-    planned = [r for r in rows if r["status"] == "planned"]
-    assert all(r["claim"].chapter is None for r in planned) and planned
-    assert set(rows[0]["other_seeds"]) == {1} and not rows[-1]["other_seeds"]
+    planned = ledger.Claim("samp.planned_example", "SAMP", "Table 9", "a claim no chapter regenerates yet", "1.0",
+                           None, planned="its model is not built")
+    claims = ledger.CLAIMS + (planned,)
+    rows = ledger.ledger_rows(seed=0, scale="toy", claims=claims)
+    assert [r["claim"].key for r in rows] == [c.key for c in claims]
+    assert rows[-1]["status"] == "planned" and rows[-1]["record"] is None
+    assert set(rows[0]["other_seeds"]) == {1} and not rows[-2]["other_seeds"]
     table = ledger.summary(rows)
-    assert int(table.loc["all", "claims"]) == len(ledger.CLAIMS)
-    assert int(table.loc["all", "planned"]) == len(planned)
+    assert int(table.loc["all", "claims"]) == len(claims)
+    assert int(table.loc["all", "planned"]) == 1 and int(table.loc["SAMP", "planned"]) == 1
+    assert "its model is not built" in ledger.markdown_table(rows, "SAMP")
+    rows = rows[:-1]
     markdown = ledger.markdown_table(rows, "NIFTY")
     assert markdown.count("\n") == 1 + sum(c.paper == "NIFTY" for c in ledger.CLAIMS)
     assert "test text for nifty.t1.reach" in markdown and "(../notebooks/06_evaluating_nifty.ipynb)" in markdown
@@ -215,3 +217,12 @@ def test_chapter_summary_shows_whole_texts(tmp_cache):
     assert "test text for " + made[0].key in styled.to_html()
     with pytest.raises(TypeError, match="ClaimRecord"):
         ledger.chapter_summary([])
+
+
+def test_a_planned_claim_cannot_be_recorded(tmp_cache, monkeypatch):
+    from hoi_tutorial.ledger import records
+
+    planned = ledger.Claim("samp.planned_example", "SAMP", "Table 9", "s", "1.0", None, planned="not built")
+    monkeypatch.setattr(records, "claim", lambda key: planned)
+    with pytest.raises(ValueError, match="planned"):
+        ledger.record("samp.planned_example", seed=0, scale="toy", ours="text")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from hoi_tutorial.samp import goalnet as gn, motionnet as mn, pipeline as pl
+from hoi_tutorial.samp import goalnet as gn, motion_data as md, motionnet as mn, pipeline as pl
 from hoi_tutorial.world.features import SAMP_STATE_SIZE
 from hoi_tutorial.world.scenes import make_room
 
@@ -100,3 +100,25 @@ def test_room_run_end_to_end_with_and_without_planning(tasks):
         assert (result.waypoints[0] is None) == (not planning)
     with pytest.raises(ValueError, match="tasks"):
         pl.run_room_tasks(model, [])
+
+
+def test_room_voxel_cells_give_the_target_or_every_object(tasks):
+    centres, occupancy = pl.room_voxel_cells(tasks)
+    assert centres.shape == (2, 512, 3) and occupancy.shape == (2, 512)
+    target = md.object_voxel_cells(tasks[0].room.target)
+    np.testing.assert_allclose(centres[0].numpy(), target[0])
+    every_c, every_o = pl.room_voxel_cells(tasks, every_object=True)
+    most = max(len(t.room.objects) for t in tasks)
+    assert every_c.shape == (2, 512 * most, 3)
+    for b, t in enumerate(tasks):  # a room with fewer objects is padded with cells that sense nothing
+        n = len(t.room.objects)
+        assert float(every_o[b, 512 * n:].abs().sum()) == 0.0 and float(every_o[b, :512 * n].sum()) > 0.0
+
+
+def test_an_nsm_like_model_runs_in_a_room_sensing_every_object(tasks):
+    torch.manual_seed(0)
+    model = mn.build_motion_model(mn.motionnet_config(
+        state_hidden=(16, 8, 8), interaction_hidden=(8, 8), interaction_out=4, gating_hidden=(8, 4),
+        prediction_hidden=16, n_experts=2, model="nsm")).eval()
+    result = pl.run_room_tasks(model, tasks, seconds=0.4, planning=False)
+    assert result.rollout.states.shape == (2, 13, SAMP_STATE_SIZE)

@@ -236,7 +236,7 @@ CLAIMS = (
               f"{c} {_text(_S.TABLE5[action]['SAMP'][c], _FD)} / {_text(_S.TABLE5[action]['NSM'][c], _FD)}"
               for c in ("Precision PE (cm)", "FD", "Diversity", "Penetration (%)")
               for _FD in [2 if c == "FD" else None]) for action in _S.TABLE5),
-          None, planned="the NSM-like model is not built yet (the SAMP issue)"),
+          "14_samp_pipeline"),
     # ------------------------------------------------------------------------------------------------ CHOICE
     Claim("choice.fig11.latent_clusters", "CHOICE", "Fig. 11",
           "the planner's latent codes cluster by furniture, and an unseen layout's code lies beside similar "

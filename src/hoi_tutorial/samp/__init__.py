@@ -3,7 +3,8 @@
 Modules, in the order of the paper:
 
 - ``core``: the networks: the interaction encoder over 8×8×8×4 object voxels, GoalNet's cVAE, MotionNet's
-  cVAE with its mixture-of-experts decoder, and the MLP and MoE baselines (§3.1–3.2, Supp. C).
+  cVAE with its mixture-of-experts decoder, and the MLP, MoE and NSM-like baselines (§3.1–3.2, Supp. C, Table 5).
+- ``sensor``: the NSM-like baseline's environment sensor, an 8×8×8 grid moving with the character (Table 5).
 - ``motion_data``: toy clips of the five actions as states (Eq. 1), roots, goals and voxels (§4.1).
 - ``augmentation``: a clip moved onto another object with its contacts kept, by projection and IK (§4.2, Supp. F).
 - ``motionnet``: MotionNet's training with scheduled sampling (Eq. 3, Eq. 5; Supp. D, G ablations).
@@ -15,5 +16,5 @@ Modules, in the order of the paper:
   where the path changes direction that the character walks to in turn (§3.3, Appendix E).
 - ``paper_numbers``: the paper's reported numbers, transcribed, for the tables set beside ours.
 
-The NSM-like comparison of Table 5 is still to come, and the augmentation is not yet used in training.
+The augmentation is not yet used in training.
 """

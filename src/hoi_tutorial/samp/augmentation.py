@@ -31,7 +31,6 @@ projection onto a copy with other sizes (``ToyObject.with_params``).
 from __future__ import annotations
 
 import dataclasses
-from typing import Optional
 
 import numpy as np
 import torch

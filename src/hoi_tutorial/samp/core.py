@@ -1,5 +1,5 @@
 """SAMP's networks (§3.1–3.2, Appendices B–C, Table S.3): the interaction encoder, GoalNet's cVAE,
-MotionNet's cVAE with its mixture-of-experts decoder, and the MLP and MoE baselines.
+MotionNet's cVAE with its mixture-of-experts decoder, and the MLP, MoE and NSM-like baselines.
 
 Every network in SAMP is a three-layer fully connected network with ELU activations (Appendix B.1).
 The object enters as its interaction voxels ``I``: 8×8×8 cells of the object's box, 4 numbers each
@@ -132,10 +132,12 @@ class MotionModel(nn.Module, abc.ABC):
     latent = 0  # deterministic unless a subclass has a latent code
 
     def __init__(self, state_size: int, output_size: int, interaction_hidden: tuple, interaction_out: int,
-                 use_interaction: bool = True):
+                 use_interaction: bool = True, environment_sensor: bool = False):
         super().__init__()
         self.state_size, self.output_size = int(state_size), int(output_size)
         self.use_interaction = bool(use_interaction)
+        # True: the 2048 voxel inputs are the NSM-like environment sensor's (samp.sensor), not the target's voxels
+        self.environment_sensor = bool(environment_sensor)
         self.code_size = int(interaction_out) if self.use_interaction else 0
         self.interaction = (InteractionEncoder(tuple(interaction_hidden), int(interaction_out))
                             if self.use_interaction else None)
@@ -201,13 +203,16 @@ class MotionNet(MotionModel):
         n_experts: K.
         latent: size of ``Z``; 0 makes the deterministic MoE (no encoder).
         use_interaction: False for SAMP Supp. G's ablation (no interaction encoder).
+        environment_sensor: True for the NSM-like model of Table 5 (with ``latent=0``): the voxel inputs
+            come from the environment sensor around the character (``samp.sensor``).
     """
 
     def __init__(self, state_size: int, output_size: int, state_hidden: tuple = (512, 256, 256),
                  interaction_hidden: tuple = (256, 256), interaction_out: int = 256,
                  gating_hidden: tuple = (512, 256), prediction_hidden: int = 512, n_experts: int = 12,
-                 latent: int = 64, use_interaction: bool = True):
-        super().__init__(state_size, output_size, interaction_hidden, interaction_out, use_interaction)
+                 latent: int = 64, use_interaction: bool = True, environment_sensor: bool = False):
+        super().__init__(state_size, output_size, interaction_hidden, interaction_out, use_interaction,
+                         environment_sensor)
         self.latent = int(latent)
         if self.latent:
             self.state_encoder = MLP(self.output_size + self.state_size, tuple(state_hidden[:-1]), int(state_hidden[-1]),

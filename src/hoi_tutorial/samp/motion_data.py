@@ -53,6 +53,7 @@ from ..world import mocap
 from ..world.features import SAMP_ACTIONS, SAMP_STATE_SIZE, root_frame, samp_action_ids, samp_pose_state
 from ..world.motion import ACTIONS, Motion
 from ..world.objects import ToyObject, make_object
+from .sensor import sensor_voxels
 
 __all__ = [
     "MOTION_KINDS",
@@ -380,13 +381,17 @@ class MotionData:
         check_choice(kind, MOTION_KINDS, "kind")
         return torch.nonzero(self.clip_kind[self.frame_clip()] == MOTION_KINDS.index(kind))[:, 0]
 
-    def voxels(self, frames: torch.Tensor, roots: Optional[torch.Tensor] = None) -> torch.Tensor:
-        """``(B, 2048)`` interaction voxels of ``frames`` (indices) seen from ``roots`` (default theirs)."""
+    def voxels(self, frames: torch.Tensor, roots: Optional[torch.Tensor] = None, sensor: bool = False) -> torch.Tensor:
+        """``(B, 2048)`` interaction voxels of ``frames`` (indices) seen from ``roots`` (default theirs), or
+        with ``sensor`` what the NSM-like model's environment sensor reads there (``sensor.sensor_voxels``)."""
         roots = self.roots[frames] if roots is None else roots
         objects = self.clip_object[self.frame_clip()[frames]]
         safe = objects.clamp_min(0)
+        present = (objects >= 0).to(roots.dtype)[:, None]
+        if sensor:  # the sensor grid is always there; it senses nothing in a clip without an object
+            return sensor_voxels(self.voxel_centres[safe], self.voxel_occupancy[safe] * present, roots)
         out = voxels_in_root_frame(self.voxel_centres[safe], self.voxel_occupancy[safe], roots)
-        return out * (objects >= 0).to(out.dtype)[:, None]
+        return out * present
 
     def windows(self, length: int, stride: Optional[int] = None) -> torch.Tensor:
         """``(W,)`` first frames of every window of ``length + 1`` frames inside one clip (stride

@@ -68,7 +68,9 @@ __all__ = [
     "trained_motion_model",
 ]
 
-MODEL_KINDS = ("samp", "moe", "mlp")  # MotionNet, and the MoE and MLP baselines of Supp. C
+# MotionNet; the MoE and MLP baselines of Supp. C; the NSM-like model of Table 5 (the MoE with the
+# environment sensor of samp.sensor in place of the target's voxels)
+MODEL_KINDS = ("samp", "moe", "mlp", "nsm")
 OWN_INPUTS = ("recomputed", "ground_truth")
 OUTPUT_SIZE = SAMP_STATE_SIZE + ROOT_SIZE
 # The parts of X that come from the goal; kept from the ground truth in scheduled sampling.
@@ -103,7 +105,8 @@ class MotionNetConfig:
     """MotionNet (or a baseline) and its training (defaults: the ``toy`` preset).
 
     Attributes:
-        model: ``"samp"`` (MotionNet), ``"moe"`` or ``"mlp"`` (the baselines of Supp. C).
+        model: ``"samp"`` (MotionNet), ``"moe"`` or ``"mlp"`` (the baselines of Supp. C), ``"nsm"`` (the
+            NSM-like model of Table 5: the MoE baseline sensing its surroundings, ``samp.sensor``).
         use_interaction: False for Supp. G's ablation (no interaction encoder).
         scheduled_sampling: False for Supp. D's ablation (``P = 1`` throughout: ground-truth inputs only).
         state_hidden, interaction_hidden, interaction_out, gating_hidden, prediction_hidden,
@@ -178,7 +181,8 @@ def build_motion_model(config: MotionNetConfig) -> MotionModel:
                                   config.interaction_out, config.use_interaction)
         return MotionNet(SAMP_STATE_SIZE, OUTPUT_SIZE, tuple(config.state_hidden), tuple(config.interaction_hidden),
                          config.interaction_out, tuple(config.gating_hidden), config.prediction_hidden,
-                         config.n_experts, config.latent if config.model == "samp" else 0, config.use_interaction)
+                         config.n_experts, config.latent if config.model == "samp" else 0, config.use_interaction,
+                         environment_sensor=config.model == "nsm")
 
 
 def training_targets(data: MotionData) -> torch.Tensor:
@@ -207,7 +211,8 @@ def train_motion_model(data: MotionData, config: MotionNetConfig, device="cpu",
     targets = training_targets(data)
     model = build_motion_model(config)
     sample_frames = torch.randperm(len(data), generator=torch.Generator().manual_seed(config.seed))[:4096]
-    model.set_statistics(data.states, targets[1:], data.voxels(sample_frames))
+    sensor = model.environment_sensor
+    model.set_statistics(data.states, targets[1:], data.voxels(sample_frames, sensor=sensor))
     mask = goal_feature_mask()
     goal_actions = data.goal_actions
     steps_per_epoch = math.ceil(len(starts) / config.batch_size)
@@ -227,7 +232,7 @@ def train_motion_model(data: MotionData, config: MotionNetConfig, device="cpu",
         frames, own, eps = batch["frames"], batch["own"], batch["eps"]
         B = frames.shape[0]
         inputs = data.states[frames[:, :-1]].clone()  # (B, L, 437): ground truth, replaced where own
-        voxels = data.voxels(frames[:, :-1].reshape(-1)).reshape(B, L, -1)
+        voxels = data.voxels(frames[:, :-1].reshape(-1), sensor=sensor).reshape(B, L, -1)
         y = targets[frames[:, 1:]]  # (B, L, 440)
         if bool(own.any()):
             with torch.no_grad():
@@ -247,7 +252,7 @@ def train_motion_model(data: MotionData, config: MotionNetConfig, device="cpu",
                             nxt = frames[:, t + 1]
                             x = with_goal(pred[:, :SAMP_STATE_SIZE], root, data.goal_positions[nxt],
                                           data.goal_directions[nxt], goal_actions[nxt])
-                            voxels[:, t + 1] = data.voxels(nxt, root)
+                            voxels[:, t + 1] = data.voxels(nxt, root, sensor=sensor)
                         else:
                             x = torch.where(mask, inputs[:, t + 1], pred[:, :SAMP_STATE_SIZE])
                         inputs[:, t + 1] = x

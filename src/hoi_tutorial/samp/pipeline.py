@@ -12,9 +12,11 @@ The algorithm box, as :func:`run_room_tasks` runs it:
    waypoints become walk goals passed within ``waypoint_radius``; once the character is within
    ``action_radius`` of the standing spot, the goal becomes the sitting goal (the training clips walk
    up to a seat with its goal from 2-4.5 m).
-4. **MotionNet** steps the character (``runtime.rollout``) with the target's voxels.
+4. **MotionNet** steps the character (``runtime.rollout``) with the target's voxels; the NSM-like model
+   of Table 5 senses every object of the room instead (:func:`room_voxel_cells`, ``samp.sensor``).
 
-Without path planning (SAMP's §5.2 ablation) the sitting goal is the only goal from the start.
+Without path planning (SAMP's §5.2 ablation, and NSM, which has none) the sitting goal is the only goal
+from the start.
 
 **Penetration** (§5.2, "the percentage of frames where a penetration happens"): a frame counts when
 a joint of the body is inside a piece of furniture other than the target or a wall (signed distance
@@ -38,7 +40,8 @@ from .motion_data import object_voxel_cells
 from .planning import check_room_point, plan_path, reaches
 from .runtime import GoalSequence, Rollout, rollout, standing_state
 
-__all__ = ["RoomTask", "room_tasks", "goals_along_path", "RoomRunResults", "penetrating_frames", "run_room_tasks"]
+__all__ = ["RoomTask", "room_tasks", "goals_along_path", "room_voxel_cells", "RoomRunResults", "penetrating_frames",
+           "run_room_tasks"]
 
 
 @dataclass
@@ -153,6 +156,27 @@ def penetrating_frames(room, joints: np.ndarray, tolerance: float = 0.02) -> np.
     return (distance < -tolerance).any(axis=-1)
 
 
+def room_voxel_cells(tasks: Sequence[RoomTask], every_object: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
+    """The voxel cells a model is given in each task's room: the target's (MotionNet's interaction voxels),
+    or with ``every_object`` those of every object in the room (what the NSM-like sensor senses).
+
+    Returns:
+        ``(centres (B, 512 M, 3), occupancy (B, 512 M))``, ``M`` the most objects of a room (1 for the target
+        alone); a room with fewer objects repeats its first object's cells with zero occupancy.
+    """
+    per_task = []
+    for t in tasks:
+        objects = list(t.room.objects) if every_object else [t.room.target]
+        per_task.append([object_voxel_cells(obj) for obj in objects])
+    most = max(len(cells) for cells in per_task)
+    centres, occupancy = [], []
+    for cells in per_task:
+        padding = [(cells[0][0], np.zeros_like(cells[0][1]))] * (most - len(cells))
+        centres.append(np.concatenate([c for c, _ in cells + padding]))
+        occupancy.append(np.concatenate([o for _, o in cells + padding]))
+    return torch.as_tensor(np.stack(centres)), torch.as_tensor(np.stack(occupancy))
+
+
 @dataclass
 class RoomRunResults:
     """What :func:`run_room_tasks` measured, one entry per task.
@@ -191,9 +215,7 @@ def run_room_tasks(model: MotionModel, tasks: Sequence[RoomTask], seconds: float
     n_frames = int(round(seconds * fps))
     plans = [goals_along_path(t, planning=planning) for t in tasks]
     goals = GoalSequence.from_lists([g for g, _ in plans])
-    cells = [object_voxel_cells(t.room.target) for t in tasks]
-    centres = torch.as_tensor(np.stack([c for c, _ in cells]))
-    occupancy = torch.as_tensor(np.stack([o for _, o in cells]))
+    centres, occupancy = room_voxel_cells(tasks, every_object=model.environment_sensor)
     roots = torch.as_tensor(np.stack([t.start_root for t in tasks]), dtype=torch.float32)
     out = rollout(model, standing_state(), roots, goals, n_frames, torch.Generator().manual_seed(int(seed)),
                   centres, occupancy, latent_scale=latent_scale)

@@ -32,6 +32,7 @@ from ..world.features import SAMP_ACTIONS, SAMP_SAMPLE_OFFSETS, SAMP_STATE_LAYOU
 from ..world.skeleton import NUM_JOINTS
 from .core import MotionModel
 from .motion_data import apply_root_displacement, voxels_in_root_frame
+from .sensor import sensor_voxels
 
 __all__ = [
     "CURRENT_SAMPLE",
@@ -315,7 +316,9 @@ def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, 
         n_frames: frames to generate (30 a second).
         generator: a CPU ``torch.Generator`` for the latent draws.
         voxel_centres, voxel_occupancy: ``(B, 512, 3)`` and ``(B, 512)`` each character's object in
-            the world (``motion_data.object_voxel_cells``), or None for no object (zeros).
+            the world (``motion_data.object_voxel_cells``), or None for no object (zeros). A model with
+            the environment sensor (``model.environment_sensor``) senses them, and takes the cells of
+            ``M`` objects, ``(B, 512 M, 3)`` and ``(B, 512 M)``.
         latent_scale: σ of the latent draws.
         goal_correction: near the goal, blend the future trajectory towards its goal-frame
             prediction (:func:`correct_towards_goal`, SAMP's public run-time code).
@@ -340,7 +343,9 @@ def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, 
     states, root_track, goal_track = [x], [roots], [index]
     for _ in range(n_frames):
         if voxel_centres is None:
-            voxels = torch.zeros(B, 2048)
+            voxels = sensor_voxels(None, None, roots) if model.environment_sensor else torch.zeros(B, 2048)
+        elif model.environment_sensor:
+            voxels = sensor_voxels(voxel_centres, voxel_occupancy, roots)
         else:
             voxels = voxels_in_root_frame(voxel_centres, voxel_occupancy, roots)
         z = None
