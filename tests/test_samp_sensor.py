@@ -110,3 +110,10 @@ def test_motion_data_senses_the_clips_object_and_nothing_without_one(tmp_cache):
     # the interaction voxels are unchanged by the option's existence
     torch.testing.assert_close(data.voxels(sit), md.voxels_in_root_frame(data.voxel_centres[obj],
                                                                          data.voxel_occupancy[obj], data.roots[sit]))
+
+
+def test_sensor_points_are_the_cells_carried_by_the_root():
+    roots = torch.tensor([[0.3, 2.0, 0.4], [-1.5, 0.2, -2.8]])
+    points = sensor.sensor_points(roots)
+    back = md.voxels_in_root_frame(points, torch.zeros(2, 512), roots).reshape(2, 512, 4)[..., :3]
+    torch.testing.assert_close(back, sensor.sensor_cells().expand(2, -1, -1), atol=1e-5, rtol=0)

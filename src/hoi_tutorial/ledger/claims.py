@@ -110,13 +110,14 @@ def _grouped(tables: Mapping[str, Mapping[str, Mapping[str, object]]], rows: Seq
 # tables are quoted value by value (``_text(v)``); the others with their column's decimals.
 
 
+def _cells(table: Mapping[str, Mapping[str, object]], row: str, columns: Sequence[str]) -> str:
+    """``"col v, col v"``: one row of a table of rows (methods) by columns."""
+    return ", ".join(f"{c} {_text(table[row].get(c), _column_decimals(table, c))}" for c in columns if c in table[row])
+
+
 def _rowwise(table: Mapping[str, Mapping[str, object]], rows: Sequence[str], columns: Sequence[str]) -> str:
     """``"row: col v, col v; row: ..."`` for a table of rows (methods) by columns."""
-    parts = []
-    for r in rows:
-        cells = [f"{c} {_text(table[r].get(c), _column_decimals(table, c))}" for c in columns if c in table[r]]
-        parts.append(f"{r}: {', '.join(cells)}")
-    return "; ".join(parts)
+    return "; ".join(f"{r}: {_cells(table, r, columns)}" for r in rows)
 
 
 def _columnwise(table: Mapping[str, Mapping[str, object]], rows: Sequence[str], columns: Sequence[str]) -> str:
@@ -194,8 +195,8 @@ CLAIMS = (
     # -------------------------------------------------------------------------------------------------- SAMP
     Claim("samp.goalnet.error_and_diversity", "SAMP", "§5.2, GoalNet",
           "GoalNet reconstructs unseen goals closely and its sampled goals are diverse (APD)",
-          "reconstruction: " + _rowwise(_S.GOALNET, ["reconstruction"], ["position (cm)", "direction (deg)"])
-          .split(": ", 1)[1] + "; " + _rowwise(_S.GOALNET, ["GoalNet", "GT"], ["APD-Pos (cm)", "APD-Rot (deg)"]),
+          "reconstruction: " + _cells(_S.GOALNET, "reconstruction", ["position (cm)", "direction (deg)"]) + "; "
+          + _rowwise(_S.GOALNET, ["GoalNet", "GT"], ["APD-Pos (cm)", "APD-Rot (deg)"]),
           "11_samp_goals_and_paths"),
     Claim("samp.fig7.sideways", "SAMP", "Fig. 7",
           "GoalNet lets a character sit sideways on a chair, not on an armchair", _FIGURE, "11_samp_goals_and_paths"),
@@ -206,7 +207,7 @@ CLAIMS = (
           _columnwise(_S.TABLE1, ["GT", "SAMP"], ["Walk", "Run", "Sit", "Liedown"]), "12_samp_motionnet"),
     Claim("samp.s52.motionnet_reaches_goals", "SAMP", "§5.2",
           "MotionNet reaches sit and lie-down goals on unseen objects",
-          "SAMP in Table 3: " + _rowwise(_S.TABLE3, ["SAMP"], ["Sit PE (cm)", "Liedown PE (cm)"]).split(": ", 1)[1]
+          "SAMP in Table 3: " + _cells(_S.TABLE3, "SAMP", ["Sit PE (cm)", "Liedown PE (cm)"])
           + "; in Table 2: sit " + _text(_S.TABLE2["Sit"]["SAMP"]) + " s, lie down "
           + _text(_S.TABLE2["Liedown"]["SAMP"]) + " s", "12_samp_motionnet"),
     Claim("samp.suppd.scheduled_sampling", "SAMP", "§3.2, Supp. D",

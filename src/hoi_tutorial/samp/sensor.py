@@ -18,7 +18,8 @@ import torch
 
 from .._validate import check_shape
 
-__all__ = ["SENSOR_RESOLUTION", "SENSOR_EXTENT", "sensor_cells", "lattice_occupancy", "sensor_voxels"]
+__all__ = ["SENSOR_RESOLUTION", "SENSOR_EXTENT", "sensor_cells", "sensor_points", "lattice_occupancy",
+           "sensor_voxels"]
 
 SENSOR_RESOLUTION = 8
 # (forward, left, up) ranges in metres of the root frame: 1.6 m ahead, 0.8 m behind, 1.2 m to each side, 0-1.6 m up.
@@ -31,6 +32,16 @@ def sensor_cells() -> torch.Tensor:
     axes = [lo + (hi - lo) * (torch.arange(SENSOR_RESOLUTION, dtype=torch.float32) + 0.5) / SENSOR_RESOLUTION
             for lo, hi in SENSOR_EXTENT]
     return torch.stack(torch.meshgrid(*axes, indexing="ij"), dim=-1).reshape(-1, 3)
+
+
+def sensor_points(roots: torch.Tensor) -> torch.Tensor:
+    """``(B, 512, 3)`` the sensor's cell centres in the world for characters at ``roots (B, 3)`` ``(x, y, heading)``."""
+    check_shape(roots, (None, 3), "roots")
+    local = sensor_cells().to(roots.dtype)
+    c, s = torch.cos(roots[:, 2])[:, None], torch.sin(roots[:, 2])[:, None]
+    return torch.stack([roots[:, None, 0] + c * local[:, 0] - s * local[:, 1],
+                        roots[:, None, 1] + s * local[:, 0] + c * local[:, 1],
+                        local[:, 2].expand(roots.shape[0], -1)], dim=-1)
 
 
 def lattice_occupancy(points: torch.Tensor, centres: torch.Tensor, occupancy: torch.Tensor) -> torch.Tensor:
@@ -83,9 +94,5 @@ def sensor_voxels(centres: torch.Tensor, occupancy: torch.Tensor, roots: torch.T
         return torch.cat([local.expand(B, -1, -1), roots.new_zeros(B, local.shape[0], 1)], dim=-1).reshape(B, -1)
     if centres.dim() == 2:
         centres, occupancy = centres.expand(B, -1, -1), occupancy.expand(B, -1)
-    c, s = torch.cos(roots[:, 2])[:, None], torch.sin(roots[:, 2])[:, None]
-    world = torch.stack([roots[:, None, 0] + c * local[:, 0] - s * local[:, 1],
-                         roots[:, None, 1] + s * local[:, 0] + c * local[:, 1],
-                         local[:, 2].expand(B, -1)], dim=-1)  # (B, 512, 3)
-    sensed = lattice_occupancy(world, centres.to(roots.dtype), occupancy.to(roots.dtype))
+    sensed = lattice_occupancy(sensor_points(roots), centres.to(roots.dtype), occupancy.to(roots.dtype))
     return torch.cat([local.expand(B, -1, -1), sensed[..., None]], dim=-1).reshape(B, -1)
