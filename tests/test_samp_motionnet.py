@@ -214,6 +214,17 @@ def test_training_runs_scheduled_sampling_and_lowers_the_loss(tmp_cache):
     assert set(flat.extra["teacher_forcing"]) == {1.0}
 
 
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA")
+@pytest.mark.parametrize("kind", ["samp", "nsm"])
+def test_training_on_cuda_matches_the_data_kept_on_the_cpu(tmp_cache, kind):
+    # the data set stays on the CPU; own-prediction steps (P = 0 from the start) move what the network reads
+    data = md.motion_data(_tiny_data_config(), "train")
+    config = _tiny_model_config(epochs=1, c1=0.0, c2=0.5, model=kind)
+    model, result = mn.train_motion_model(data, config, device="cuda")
+    assert model.x_mean.device.type == "cuda" and np.isfinite(result.losses).all()
+    assert result.extra["teacher_forcing"][-1] == 0.0
+
+
 def test_rollout_follows_goals_in_turn():
     torch.manual_seed(0)
     model = mn.build_motion_model(_tiny_model_config()).eval()

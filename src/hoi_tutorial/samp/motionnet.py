@@ -229,14 +229,16 @@ def train_motion_model(data: MotionData, config: MotionNetConfig, device="cpu",
                 "eps": torch.randn(L, config.batch_size, max(latent, 1), generator=generator)}
 
     def loss_fn(net: MotionModel, batch):
-        frames, own, eps = batch["frames"], batch["own"], batch["eps"]
+        # the data stay on the CPU (indexed there); what the network reads moves to its device
+        dev = net.x_mean.device
+        frames, own, eps = batch["frames"].cpu(), batch["own"].cpu(), batch["eps"].to(dev)
         B = frames.shape[0]
-        inputs = data.states[frames[:, :-1]].clone()  # (B, L, 437): ground truth, replaced where own
-        voxels = data.voxels(frames[:, :-1].reshape(-1), sensor=sensor).reshape(B, L, -1)
-        y = targets[frames[:, 1:]]  # (B, L, 440)
+        inputs = data.states[frames[:, :-1]].clone().to(dev)  # (B, L, 437): ground truth, replaced where own
+        voxels = data.voxels(frames[:, :-1].reshape(-1), sensor=sensor).reshape(B, L, -1).to(dev)
+        y = targets[frames[:, 1:]].to(dev)  # (B, L, 440)
         if bool(own.any()):
             with torch.no_grad():
-                x, root = inputs[:, 0], data.roots[frames[:, 0]]
+                x, root = inputs[:, 0], data.roots[frames[:, 0]].to(dev)
                 for t in range(L - 1):
                     if bool(own[t]):
                         xn, code = net.normalise_input(x), net.code(voxels[:, t])
@@ -250,18 +252,18 @@ def train_motion_model(data: MotionData, config: MotionNetConfig, device="cpu",
                             # features and the voxels are those seen from there
                             root = apply_root_displacement(root, pred[:, SAMP_STATE_SIZE:])
                             nxt = frames[:, t + 1]
-                            x = with_goal(pred[:, :SAMP_STATE_SIZE], root, data.goal_positions[nxt],
-                                          data.goal_directions[nxt], goal_actions[nxt])
-                            voxels[:, t + 1] = data.voxels(nxt, root, sensor=sensor)
+                            x = with_goal(pred[:, :SAMP_STATE_SIZE], root, data.goal_positions[nxt].to(dev),
+                                          data.goal_directions[nxt].to(dev), goal_actions[nxt].to(dev))
+                            voxels[:, t + 1] = data.voxels(nxt, root.cpu(), sensor=sensor).to(dev)
                         else:
                             x = torch.where(mask, inputs[:, t + 1], pred[:, :SAMP_STATE_SIZE])
                         inputs[:, t + 1] = x
                     else:
-                        x, root = inputs[:, t + 1], data.roots[frames[:, t + 1]]
+                        x, root = inputs[:, t + 1], data.roots[frames[:, t + 1]].to(dev)
         xn = net.normalise_input(inputs.reshape(B * L, -1))
         code = net.code(voxels.reshape(B * L, -1))
         yn = net.normalise_output(y.reshape(B * L, -1))
-        kl = torch.zeros(())
+        kl = torch.zeros((), device=dev)
         z = None
         if latent:
             mu, logvar = net.posterior(yn, xn, code)
