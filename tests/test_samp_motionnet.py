@@ -216,7 +216,7 @@ def test_training_runs_scheduled_sampling_and_lowers_the_loss(tmp_cache):
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA")
 @pytest.mark.parametrize("kind", ["samp", "nsm"])
-def test_training_on_cuda_matches_the_data_kept_on_the_cpu(tmp_cache, kind):
+def test_training_runs_on_cuda_with_the_data_set_on_the_cpu(tmp_cache, kind):
     # the data set stays on the CPU; own-prediction steps (P = 0 from the start) move what the network reads
     data = md.motion_data(_tiny_data_config(), "train")
     config = _tiny_model_config(epochs=1, c1=0.0, c2=0.5, model=kind)
