@@ -1,10 +1,17 @@
 """CHOICE's pick-and-place demo (§6, Fig. 6; ``choice.pick_and_place``): the toy kitchen's run opens the door,
 takes the bottle out and puts it on the table without collision for seeds 0, 1, 2; the schedule is co-temporal;
-the collision measure flags a door kept shut and a bottle moved through the cabinet; determinism; errors."""
+the collision measure flags a door kept shut and a bottle moved through the cabinet; the arms' measures tell
+crossed and touching arms; determinism; errors."""
 import numpy as np
 import pytest
 
 from hoi_tutorial.choice import pick_and_place as pp
+from hoi_tutorial.choice import pick_and_place_checks as pp_checks
+from hoi_tutorial.choice import scheduler
+from hoi_tutorial.choice.pick_and_place_stances import stance_pose
+from hoi_tutorial.world.mocap.body_plan import PlanBody, check_betas, hand_on_point, plan_to_motion
+from hoi_tutorial.world.mocap.motion_math import forward_xyz, right_xyz
+from hoi_tutorial.world.mocap.standing import standing_plan
 
 
 @pytest.fixture(scope="module")
@@ -132,3 +139,45 @@ def test_errors_name_what_was_expected(run0):
         pp.evaluate(run0, bottle_pose=np.zeros((T, 3, 4)))
     with pytest.raises(ValueError, match="name: expected one of"):
         run0.phase("dance")
+
+
+# ----------------------------------------------------------------------------- the arms against each other
+
+
+def _reaching(wrist_points):
+    """Two frames standing: arms hanging, then each wrist (left, right) driven by IK to ``(lateral, ahead)``
+    metres from a point 25 cm above the pelvis (lateral: toward the body's right)."""
+    body = PlanBody(check_betas(None))
+    heading = 0.3
+    root, ankles, feet = stance_pose(body, (1.0, 2.0), heading)
+    plan = standing_plan(2, root, heading, ankles, feet, "idle")
+    chest = root + np.array([0.0, 0.0, 0.25])
+    for side, (lateral, ahead) in enumerate(wrist_points):
+        point = chest + lateral * right_xyz(heading) + ahead * forward_xyz(heading)
+        hand_on_point(plan, slice(1, 2), side, point[None], np.ones(1))
+    return plan_to_motion(plan, body)
+
+
+def test_arm_measures_tell_hanging_reaching_crossed_and_touching_arms():
+    hanging_and_apart = pp_checks.arm_measures(_reaching([(-0.15, 0.3), (0.15, 0.3)]))
+    # hanging (frame 0) and reaching ahead on their own sides (frame 1): each wrist on its side, arms apart
+    assert np.all(hanging_and_apart["left_across"] < -0.1) and np.all(hanging_and_apart["right_across"] < -0.1)
+    assert np.all(hanging_and_apart["crossed"] < -0.2) and np.all(hanging_and_apart["arm_clearance"] > 0.1)
+    # the right wrist reaches past the midline, the left stays farther left: across, but not crossed
+    one_across = pp_checks.arm_measures(_reaching([(-0.2, 0.3), (-0.1, 0.3)]))
+    assert one_across["right_across"][1] > 0.05 and one_across["left_across"][1] < 0
+    assert one_across["crossed"][1] < 0 and one_across["arm_clearance"][1] > 0
+    # the wrists swap sides: crossed by about their lateral gap, and the forearms touch
+    swapped = pp_checks.arm_measures(_reaching([(0.25, 0.35), (-0.25, 0.35)]))
+    assert swapped["left_across"][1] > 0.1 and swapped["right_across"][1] > 0.1
+    assert swapped["crossed"][1] == pytest.approx(swapped["left_across"][1] + swapped["right_across"][1])
+    assert swapped["crossed"][1] > 0.2 and swapped["arm_clearance"][1] < 0
+
+
+def test_the_door_hand_crosses_the_body_exactly_when_the_scheduler_says_it_holds_across(run0):
+    # scheduler.held_on_its_side predicts from the opened handle and the bottle; the checks measure the body
+    on_its_side = scheduler.held_on_its_side(run0.plan.task, run0.hands["door"])
+    assert on_its_side == (run0.checks["door_hand_across"] < 0.1)
+    assert run0.checks["self_contact"] == (run0.checks["arm_clearance"] < 0)
+    if run0.checks["self_contact"]:
+        assert run0.checks["arms_crossed"]  # in this demo the arms only meet when they cross

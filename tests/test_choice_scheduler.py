@@ -1,6 +1,8 @@
 """CHOICE's bimanual task scheduler (§6.3, Eq. 24, Fig. 6): the cost at hand-computed cases, the auxiliary
 objects found in the target's way, the schedule chosen by the free hands, the state machine's keyframes,
 errors."""
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -205,3 +207,19 @@ def test_errors_name_what_was_expected(cabinet_bottle, matcher):
     walled_in = _kitchen_with("drawer", [("mug", 2, 0, 0.5, 0.05)])  # at the back of the tray: never clear
     with pytest.raises(ValueError, match="cannot be taken out"):
         scheduler.detect_task(walled_in, 0)
+
+
+def test_the_held_point_is_on_the_side_of_one_hand_only(cabinet_bottle):
+    task = scheduler.detect_task(cabinet_bottle, 0)
+    holder = cabinet_bottle.holder_of(0)
+    right = -holder.rotation[:, 0]  # the viewer's right, facing the cabinet (its front is +Y)
+    side = "right" if (task.hold - task.target.contact) @ right > 0 else "left"
+    other = "left" if side == "right" else "right"
+    assert scheduler.held_on_its_side(task, side) and not scheduler.held_on_its_side(task, other)
+    # the held point moved to the other side of the target swaps the answer
+    mirrored = dataclasses.replace(task, hold=task.hold - 2 * ((task.hold - task.target.contact) @ right) * right)
+    assert scheduler.held_on_its_side(mirrored, other) and not scheduler.held_on_its_side(mirrored, side)
+    with pytest.raises(ValueError, match="auxiliary_hand: expected one of"):
+        scheduler.held_on_its_side(task, "middle")
+    with pytest.raises(ValueError, match="task: expected a task with an auxiliary object held"):
+        scheduler.held_on_its_side(dataclasses.replace(task, hold=None), side)

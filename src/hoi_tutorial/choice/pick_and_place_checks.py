@@ -11,8 +11,11 @@ is thicker, so this under-counts torso contacts); the scene is every object of t
 cabinet at the frame's door angle), the walls and the floor (not for the shins and feet). Points within
 ``contact_radius`` (12 cm: the hand and the wrist end of the forearm) of a wrist that is on the handle (resp.
 the bottle's grasp point) may touch the cabinet (resp. the bottle). The bottle collides when it sinks more than
-``tolerance`` into anything (it stands on boards and on the table at zero clearance). Self-contact of the body
-is not checked. The constants are fields of ``choice.pick_and_place.PickAndPlaceConfig``.
+``tolerance`` into anything (it stands on boards and on the table at zero clearance). The body against itself
+(:func:`arm_measures`): the two arms' sample points (shoulder to wrist) against each other with the same radius,
+and how far each wrist passes the body's midline (between the shoulders) to the other side and whether the wrists'
+left-right order swaps (crossed arms); the torso against the arms is not checked (the upper arms hang within a limb
+radius of it). The constants are fields of ``choice.pick_and_place.PickAndPlaceConfig``.
 """
 from __future__ import annotations
 
@@ -39,6 +42,7 @@ __all__ = [
     "bone_table",
     "body_points",
     "body_distances",
+    "arm_measures",
     "evaluate",
 ]
 
@@ -81,6 +85,37 @@ def body_points(motion: Motion, samples: int = 4) -> tuple[np.ndarray, np.ndarra
     knees = {joint_index("left_knee"), joint_index("right_knee")}
     lower |= np.array([(aj in knees and bj in _LOWER_LEG) for aj, bj in zip(a, b)])
     return points, lower
+
+def arm_measures(motion: Motion, samples: int = 4, radius: float = 0.03) -> dict:
+    """The arms against each other and against the body's midline, per frame.
+
+    The lateral axis of a frame is the horizontal direction from the left shoulder to the right one; the midline
+    is the shoulders' midpoint.
+
+    Returns a dictionary of (T,) arrays, metres:
+        left_across, right_across: how far the wrist is past the midline on the other arm's side (negative: on
+            its own side).
+        crossed: how far the left wrist is right of the right wrist along the lateral axis (positive: the
+            wrists' order is swapped, the arms cross).
+        arm_clearance: the least distance between a point of the left arm and one of the right arm (shoulder,
+            elbow, wrist and ``samples`` points along each bone), minus ``2 radius`` (negative: the arms touch).
+    """
+    points = body_points(motion, samples)[0]
+    a, b, _ = bone_table(int(samples))
+    joints = {side: {joint_index(f"{side}_{n}") for n in ("shoulder", "elbow", "wrist")} for side in SIDES}
+    arm = {side: np.nonzero([(aj in joints[side] and bj in joints[side]) for aj, bj in zip(a, b)])[0]
+           for side in SIDES}
+    shoulder = {side: points[:, joint_index(f"{side}_shoulder")] for side in SIDES}
+    lateral = shoulder["right"] - shoulder["left"]
+    lateral[:, 2] = 0.0
+    lateral /= np.linalg.norm(lateral, axis=-1, keepdims=True)
+    middle = 0.5 * (shoulder["left"] + shoulder["right"])
+    along = {side: np.einsum("ti,ti->t", points[:, joint_index(f"{side}_wrist")] - middle, lateral) for side in SIDES}
+    pairs = np.linalg.norm(points[:, arm["left"], None] - points[:, None, arm["right"]], axis=-1)
+    return {"left_across": along["left"], "right_across": -along["right"],
+            "crossed": along["left"] - along["right"],
+            "arm_clearance": pairs.min(axis=(1, 2)) - 2.0 * radius}
+
 
 # ----------------------------------------------------------------------------- the checks
 
@@ -160,6 +195,11 @@ def evaluate(result: PickAndPlace, *, door_angle=None, bottle_pose=None) -> dict
         worst_body_frame, worst_body_point, worst_bottle_frame: where the least clearances are.
         door_hand_error: metres: the largest distance of the door hand's wrist from the handle while it holds
             it (the arm IK falls short when the handle is out of reach).
+        door_hand_across: metres: the farthest the door hand's wrist passes the body's midline to the other
+            arm's side while it holds the handle (:func:`arm_measures`; negative: it stays on its own side).
+        arms_crossed: at some frame the wrists' left-right order is swapped (``crossed`` > 0).
+        arm_clearance: metres: the least distance between the two arms minus two limb radii, over the run.
+        self_contact: the arms touch (``arm_clearance`` < 0).
     """
     config = result.config
     kitchen = result.kitchen
@@ -211,6 +251,11 @@ def evaluate(result: PickAndPlace, *, door_angle=None, bottle_pose=None) -> dict
     held = slice(starts["grasp handle"][0], starts["release door"][0])
     wrist = result.motion.joints[held, joint_index(f"{result.hands['door']}_wrist")].double().numpy()
     checks["door_hand_error"] = float(np.max(np.linalg.norm(wrist - handle_at(cabinet, door[held]), axis=-1)))
+    arms = arm_measures(result.motion, config.bone_samples, config.body_radius)
+    checks["door_hand_across"] = float(np.max(arms[f"{result.hands['door']}_across"][held]))
+    checks["arms_crossed"] = bool(np.max(arms["crossed"]) > 0.0)
+    checks["arm_clearance"] = float(np.min(arms["arm_clearance"]))
+    checks["self_contact"] = bool(checks["arm_clearance"] < 0.0)
     worst = np.unravel_index(int(np.argmin(d)), d.shape)
     a, b, t = bone_table(config.bone_samples)
     checks["worst_body_frame"] = int(worst[0])

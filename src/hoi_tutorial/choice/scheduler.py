@@ -78,6 +78,7 @@ __all__ = [
     "deviation",
     "schedule_cost",
     "arm_span",
+    "held_on_its_side",
     "Task",
     "detect_task",
     "Schedule",
@@ -483,6 +484,18 @@ def evaluate_schedules(task: Task, current: KeyPose, matcher: Matcher, config: S
         feasible = _feasible(task, schedule)
         out.append(Candidate(schedule, cost if feasible else float("inf"), a, g, feasible))
     return out
+
+
+def held_on_its_side(task: Task, auxiliary_hand: str) -> bool:
+    """Whether ``auxiliary_hand`` holds ``o_d`` on its own side of the target, so that the arms do not cross:
+    seen from in front of the holder (facing its back), the held point ``task.hold`` is not on the other hand's
+    side of the target's contact (a tie counts as either side)."""
+    check_choice(auxiliary_hand, HANDS, "auxiliary_hand")
+    if task.hold is None:
+        raise ValueError("task: expected a task with an auxiliary object held (task.hold), got none")
+    right = -task.kitchen.holder_of(task.index).rotation[:, 0]  # the viewer's right: the holder faces +Y
+    lateral = float((np.asarray(task.hold) - task.target.contact) @ right)
+    return lateral >= 0.0 if auxiliary_hand == "right" else lateral <= 0.0
 
 
 def _feasible(task: Task, schedule: Schedule) -> bool:
