@@ -223,3 +223,15 @@ def test_the_held_point_is_on_the_side_of_one_hand_only(cabinet_bottle):
         scheduler.held_on_its_side(task, "middle")
     with pytest.raises(ValueError, match="task: expected a task with an auxiliary object held"):
         scheduler.held_on_its_side(dataclasses.replace(task, hold=None), side)
+
+
+def test_the_cheapest_uncrossed_schedule_leaves_out_only_the_crossing_co_temporal_ones(cabinet_bottle, matcher):
+    plan = scheduler.plan_task(cabinet_bottle, 0, _in_front(cabinet_bottle, 0), matcher)
+    kept = scheduler.cheapest_uncrossed(plan.task, plan.candidates)
+    crossing = [c for c in plan.candidates
+                if c.schedule.cotemporal and not scheduler.held_on_its_side(plan.task, c.schedule.auxiliary_hand)]
+    assert len(crossing) == 1  # one co-temporal schedule holds the door on its hand's side, the other across
+    assert kept.feasible and kept is not crossing[0]
+    assert kept.cost == min(c.cost for c in plan.candidates if c.feasible and c is not crossing[0])
+    if plan.chosen is not crossing[0]:
+        assert kept is plan.chosen

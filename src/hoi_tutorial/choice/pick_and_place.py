@@ -34,8 +34,8 @@ The algorithm box, as this module runs it (:func:`pick_and_place`):
    scheduler's ``place_at`` is where its grasp point goes), then the hand draws back and hangs.
 8. **Checks** (:func:`evaluate`, from ``choice.pick_and_place_checks``): the door's opening against the
    scheduler's, the bottle out of the cabinet's box and standing on the table, the clearance of body and
-   bottle against the scene with the cabinet rebuilt at every frame's door angle, and the door hand's
-   distance from the handle.
+   bottle against the scene with the cabinet rebuilt at every frame's door angle, the door hand's distance
+   from the handle, and the arms against each other (crossed wrists, arm-to-arm clearance).
 
 Choices that are ours (the paper does not state them, or we simplify):
 
@@ -46,7 +46,10 @@ Choices that are ours (the paper does not state them, or we simplify):
   and the walks. The mixture-of-experts controller of §5.1 (``choice.controller``) is evaluated
   separately (Table 4) and plays no part here; nor does §6.2's phase-driven interaction motion.
 - **The matched keyframes** give the schedule, the hands and the walk goal; their poses are not imitated
-  (the stances and bends above replace them).
+  (the stances and bends above replace them). The hands are Eq. 24's even where its co-temporal schedule holds
+  the opened door across the body (``scheduler.held_on_its_side`` is False): the door hand then crosses the
+  midline and the arms may touch, which the checks report (``arms_crossed``, ``self_contact``) and the
+  ``collision`` check leaves out.
 - **Settling**: the matched walk ends within ``goal_tolerance`` of its goal, not on it; the pose is blended
   into the standing pose on the stance (the feet slide over that gap).
 - **The bottle** moves rigidly with the grasping wrist's position and the body's heading and is kept upright
@@ -94,6 +97,7 @@ __all__ = [
     "PICK_AND_PLACE_SCALES",
     "pick_and_place_config",
     "cabinet_kitchen",
+    "cabinet_schedule",
     "PickAndPlace",
     "pick_and_place",
     "body_points",  # from pick_and_place_checks, re-exported
@@ -588,6 +592,19 @@ def _attach(bottle, wrists: np.ndarray, yaws: np.ndarray, first: int, last: int)
 _HOLD_TOLERANCE = 0.02  # metres the door hand may be off the handle for a stance B to be taken at once
 
 
+def cabinet_schedule(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig()) -> scheduler.TaskPlan:
+    """Step 2 of the demo alone: §6.3 (``scheduler.plan_task``) for the bottle of :func:`cabinet_kitchen` ``seed``,
+    ``p^key`` the standing pose at the kitchen's first start position, facing the cabinet."""
+    seed = _check_seed(seed)
+    if not isinstance(config, PickAndPlaceConfig):
+        raise ValueError(f"config: expected a PickAndPlaceConfig (pick_and_place_config), got {type(config).__name__}")
+    kitchen = cabinet_kitchen(seed)
+    matcher = _matcher(config.environment, config.library, config.scheduler)
+    start = kitchen.start_positions(config.n_starts, seed=seed)[0]
+    current = KeyPose.standing(start, heading_of(kitchen.furniture_of("cabinet").translation[:2] - start))
+    return scheduler.plan_task(kitchen, 0, current, matcher, config.scheduler, config.environment)
+
+
 def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig()) -> PickAndPlace:
     """Walk to the cabinet, open its door with one hand, take the bottle out with the other, carry it to the
     table and put it down (the algorithm box above). Deterministic for ``seed``.
@@ -601,23 +618,16 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
         ValueError: a bad seed or configuration; a kitchen with no stance or no table spot.
     """
     t0 = time.perf_counter()
+    first = cabinet_schedule(seed, config)  # §6.3: the schedule (checks the seed and the configuration)
     seed = _check_seed(seed)
-    if not isinstance(config, PickAndPlaceConfig):
-        raise ValueError(f"config: expected a PickAndPlaceConfig (pick_and_place_config), got {type(config).__name__}")
-    kitchen = cabinet_kitchen(seed)
+    kitchen = first.task.kitchen
     body = PlanBody(check_betas(None))
     rng = np.random.default_rng(seed)
-    matcher = _matcher(config.environment, config.library, config.scheduler)
     database = _database(config.navigation)
     grid = navigation.navigation_grid(kitchen, config.navigation)
     cabinet = kitchen.furniture_of("cabinet")
     front = cabinet.rotation[:, 1]
     starts = kitchen.start_positions(config.n_starts, seed=seed)
-
-    # §6.3: the schedule (p^key: standing at the first start, facing the cabinet)
-    towards = cabinet.translation[:2] - starts[0]
-    current = KeyPose.standing(starts[0], heading_of(towards))
-    first = scheduler.plan_task(kitchen, 0, current, matcher, config.scheduler, config.environment)
     task, chosen = first.task, first.chosen
     if task.auxiliary is None or task.auxiliary.kind != "door":
         raise ValueError("kitchen: expected the closed cabinet door in the bottle's way")

@@ -79,6 +79,7 @@ __all__ = [
     "schedule_cost",
     "arm_span",
     "held_on_its_side",
+    "cheapest_uncrossed",
     "Task",
     "detect_task",
     "Schedule",
@@ -514,6 +515,14 @@ def _cheapest(candidates: list[Candidate]) -> Candidate:
         raise ValueError(f"schedule: none of {[c.schedule.name for c in candidates]} is feasible (the contacts are "
                          "beyond the arm span, or an obstacle has nowhere to go); free a hand or clear the board")
     return min(feasible, key=lambda c: c.cost)
+
+
+def cheapest_uncrossed(task: Task, candidates: Sequence[Candidate]) -> Candidate:
+    """The cheapest feasible candidate once the co-temporal schedules that hold ``o_d`` across the body
+    (:func:`held_on_its_side` False) are left out: what Eq. 24 would choose if it knew where the held point is
+    (ours, to show what the crossing costs; :func:`choose_schedule` is the paper's choice)."""
+    kept = [c for c in candidates if not (c.schedule.cotemporal and not held_on_its_side(task, c.schedule.auxiliary_hand))]
+    return _cheapest(kept)
 
 
 def choose_schedule(task: Task, current: KeyPose, matcher: Matcher, config: SchedulerConfig = SchedulerConfig(),
