@@ -29,6 +29,8 @@ def _assert_completed(result):
     assert checks["bottle_penetration"] <= result.config.tolerance
     assert checks["min_clearance"] >= 0
     assert checks["door_hand_error"] < 0.02  # the door moves with the hand on its handle
+    # the door held on its hand's side: the arms neither cross nor touch
+    assert not checks["arms_crossed"] and not checks["self_contact"] and checks["door_hand_across"] < 0.1
 
 
 def test_seed_0_opens_takes_out_and_places_without_collision(run0):
@@ -67,7 +69,11 @@ def test_seeds_1_and_2_complete_too(run0, seed):
 def test_the_schedule_is_co_temporal_with_one_hand_on_each_object(run0):
     plan = run0.plan
     assert plan.chosen.schedule.cotemporal and len(plan.candidates) == 4  # both hands free: four schedules
-    assert plan.chosen.cost == min(c.cost for c in plan.candidates if c.feasible)
+    assert run0.eq24.cost == min(c.cost for c in plan.candidates if c.feasible)  # Eq. 24's own choice
+    # played: the cheapest co-temporal schedule that holds the door on its hand's side
+    assert scheduler.held_on_its_side(plan.task, plan.chosen.schedule.auxiliary_hand)
+    assert plan.chosen.cost == min(c.cost for c in plan.candidates if c.feasible and c.schedule.cotemporal
+                                   and scheduler.held_on_its_side(plan.task, c.schedule.auxiliary_hand))
     door_hand, bottle_hand = run0.hands["door"], run0.hands["bottle"]
     assert door_hand != bottle_hand
     assert door_hand == plan.chosen.schedule.auxiliary_hand and bottle_hand == plan.chosen.schedule.target_hand
@@ -130,6 +136,10 @@ def test_errors_name_what_was_expected(run0):
         pp.pick_and_place_config(durations=(1.0, 2.0))
     with pytest.raises(ValueError, match="style: expected 'squat' or 'stoop'"):
         pp.pick_and_place_config(style="kneel")
+    with pytest.raises(ValueError, match="hands: expected 'eq24' or 'uncrossed'"):
+        pp.pick_and_place_config(hands="left")
+    with pytest.raises(ValueError, match="seed: expected a non-negative int"):
+        pp.cabinet_schedule(-2)
     with pytest.raises(TypeError):
         pp.pick_and_place_config(speed=2.0)
     T = len(run0.motion)
@@ -174,10 +184,14 @@ def test_arm_measures_tell_hanging_reaching_crossed_and_touching_arms():
     assert swapped["crossed"][1] > 0.2 and swapped["arm_clearance"][1] < 0
 
 
-def test_the_door_hand_crosses_the_body_exactly_when_the_scheduler_says_it_holds_across(run0):
-    # scheduler.held_on_its_side predicts from the opened handle and the bottle; the checks measure the body
-    on_its_side = scheduler.held_on_its_side(run0.plan.task, run0.hands["door"])
-    assert on_its_side == (run0.checks["door_hand_across"] < 0.1)
-    assert run0.checks["self_contact"] == (run0.checks["arm_clearance"] < 0)
-    if run0.checks["self_contact"]:
-        assert run0.checks["arms_crossed"]  # in this demo the arms only meet when they cross
+def test_eq_24s_own_hands_cross_the_arms_where_the_scheduler_says_the_door_is_held_across(run0):
+    # seed 0: Eq. 24 gives the door to the hand that ends up holding it across the body; played as it is
+    eq24 = pp.pick_and_place(0, pp.pick_and_place_config(hands="eq24"))
+    assert eq24.plan.chosen.schedule == eq24.eq24.schedule == run0.eq24.schedule
+    assert eq24.hands["door"] != run0.hands["door"]
+    for run in (eq24, run0):  # held_on_its_side predicts from the opened handle and the bottle; the checks measure
+        assert scheduler.held_on_its_side(run.plan.task, run.hands["door"]) == (run.checks["door_hand_across"] < 0.1)
+        assert run.checks["self_contact"] == (run.checks["arm_clearance"] < 0)
+    assert eq24.checks["arms_crossed"] and eq24.checks["door_hand_across"] > 0.2
+    assert not run0.checks["arms_crossed"]
+    assert eq24.checks["door_opened"] and eq24.checks["bottle_out"] and eq24.checks["placed"]

@@ -9,8 +9,9 @@ The algorithm box, as this module runs it (:func:`pick_and_place`):
    is found in its way (``o_d``) and opened just enough (``task.opening``, radians); the four schedules are
    weighed by Eq. 24 with the goal keyframes matched by §6.1 (``choice.environment``, the trained
    environment autoencoder and goal library) and ``p^key`` the standing pose at the first start, facing the
-   cabinet. Fig. 6's state machine gives the keyframes: walk → reach, grasp, open (door hand) → reach,
-   grasp, carry (bottle hand) → release (door) → place, release (bottle).
+   cabinet; the demo plays a co-temporal one (``config.hands``, below). Fig. 6's state machine gives the
+   keyframes: walk → reach, grasp, open (door hand) → reach, grasp, carry (bottle hand) → release (door) →
+   place, release (bottle).
 3. **Stances** (``choice.pick_and_place_stances``, with step 6's stance at the table). A, to take the handle:
    the walk keyframe's pelvis (§6.3's root goal), facing the cabinet, moved in 5 cm steps if needed. B, to hold
    the opened door and take the bottle: positions and headings in front of the cabinet from which a bend
@@ -46,10 +47,16 @@ Choices that are ours (the paper does not state them, or we simplify):
   and the walks. The mixture-of-experts controller of §5.1 (``choice.controller``) is evaluated
   separately (Table 4) and plays no part here; nor does §6.2's phase-driven interaction motion.
 - **The matched keyframes** give the schedule, the hands and the walk goal; their poses are not imitated
-  (the stances and bends above replace them). The hands are Eq. 24's even where its co-temporal schedule holds
-  the opened door across the body (``scheduler.held_on_its_side`` is False): the door hand then crosses the
-  midline and the arms may touch, which the checks report (``arms_crossed``, ``self_contact``) and the
-  ``collision`` check leaves out.
+  (the stances and bends above replace them).
+- **The hands** (``config.hands``). Eq. 24 prices single-handed matched keyframes: it sees where each hand grasps,
+  not where the opened door takes the handle. In the toy kitchens its co-temporal choice gives the door to the
+  hand nearer the closed handle, and the swing then carries the handle across the body to the bottle's other side
+  (``scheduler.held_on_its_side`` False): the door hand crosses the midline and the arms touch. By default
+  (``"uncrossed"``) the demo plays the cheapest co-temporal schedule that holds the door on its hand's side
+  (``scheduler.cheapest_uncrossed``; the paper's scheduler matches keyframes recorded with both hands at work,
+  where such a hold would find no match); ``"eq24"`` plays Eq. 24's choice. ``eq24`` in the result is Eq. 24's
+  choice either way. The checks report crossed arms and self-contact (``arms_crossed``, ``self_contact``);
+  ``collision`` is against the scene.
 - **Settling**: the matched walk ends within ``goal_tolerance`` of its goal, not on it; the pose is blended
   into the standing pose on the stance (the feet slide over that gap).
 - **The bottle** moves rigidly with the grasping wrist's position and the body's heading and is kept upright
@@ -133,6 +140,10 @@ class PickAndPlaceConfig:
         tolerance: penetration of the bottle allowed (it rests on boards), metres; also the placing
             tolerance (ours).
         style: the bend, ``"squat"`` (knees) or ``"stoop"`` (hips) (``world.mocap.standing``).
+        hands: which schedule the demo plays: ``"eq24"``, the one Eq. 24 chooses (as the paper; it may hold the
+            door across the body), or ``"uncrossed"``, the cheapest feasible co-temporal schedule whose door hand
+            holds the opened door on its own side (``scheduler.cheapest_uncrossed``; ours, see the module's
+            docstring).
         navigation, environment, library, scheduler: the configurations of the pieces used.
     """
 
@@ -148,6 +159,7 @@ class PickAndPlaceConfig:
     contact_radius: float = 0.12
     tolerance: float = 0.005
     style: str = "squat"
+    hands: str = "uncrossed"
     navigation: NavigationConfig = NavigationConfig()
     environment: EnvironmentConfig = EnvironmentConfig()
     library: LibraryConfig = LibraryConfig()
@@ -176,6 +188,8 @@ class PickAndPlaceConfig:
             raise ValueError(f"body_radius: expected a non-negative number of metres, got {self.body_radius!r}")
         if self.style not in ("squat", "stoop"):
             raise ValueError(f"style: expected 'squat' or 'stoop', got {self.style!r}")
+        if self.hands not in ("eq24", "uncrossed"):
+            raise ValueError(f"hands: expected 'eq24' or 'uncrossed', got {self.hands!r}")
 
 
 PICK_AND_PLACE_SCALES: dict = {}  # nothing of the demo's own scales; its pieces follow their presets
@@ -270,7 +284,9 @@ class PickAndPlace:
     Attributes:
         seed: the kitchen's seed.
         kitchen: the scene as it starts (:func:`cabinet_kitchen`; the bottle is item 0).
-        plan: the scheduler's ``TaskPlan`` (§6.3).
+        plan: the scheduler's ``TaskPlan`` (§6.3) for the schedule played (``plan.chosen``; ``config.hands``).
+        eq24: the schedule Eq. 24 chooses (``scheduler.Candidate``), the same as ``plan.chosen`` unless the
+            ``"uncrossed"`` rule replaced it.
         motion: the whole ``Motion`` (30 fps, mean body): local rotations (T, 22, 3, 3), root (T, 3) metres.
         door_angle: (T,) radians, the cabinet door at each frame.
         bottle_pose: (T, 4, 4) the bottle's world pose at each frame.
@@ -289,6 +305,7 @@ class PickAndPlace:
     seed: int
     kitchen: Kitchen
     plan: scheduler.TaskPlan
+    eq24: scheduler.Candidate
     motion: Motion
     door_angle: np.ndarray
     bottle_pose: np.ndarray
@@ -631,13 +648,15 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
     task, chosen = first.task, first.chosen
     if task.auxiliary is None or task.auxiliary.kind != "door":
         raise ValueError("kitchen: expected the closed cabinet door in the bottle's way")
+    if config.hands == "uncrossed":  # ours: the door held on its hand's side (the module's docstring)
+        chosen = scheduler.cheapest_uncrossed(task, [c for c in first.candidates if c.schedule.cotemporal])
     hands = {"door": chosen.schedule.auxiliary_hand, "bottle": chosen.schedule.target_hand}
     if hands["door"] == hands["bottle"]:
         # one hand does both (sequential): the demo is the co-temporal case of the paper; say so
         raise ValueError(f"schedule: expected a co-temporal schedule, Eq. 24 chose {chosen.schedule.name}")
     d, g = SIDES.index(hands["door"]), SIDES.index(hands["bottle"])
-    stance_xy, heading, bend1, stance_source = open_stance(body, cabinet, task, first.keyframes[0].position[:2],
-                                                            d, grid, rng, config)
+    walk_goal = scheduler.keyframes(task, chosen)[0].position[:2]  # the first matched keyframe's pelvis
+    stance_xy, heading, bend1, stance_source = open_stance(body, cabinet, task, walk_goal, d, grid, rng, config)
     takes = take_stance(body, cabinet, task, stance_xy, heading, hands, rng, config)
 
     # §6.2: the walk to the stance, from the starts in turn until one arrives
@@ -748,7 +767,7 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
              {"to": "table", "start_index": None, "goal": np.asarray(table_xy).tolist(), "reached": bool(nav2.reached),
               "goal_error": float(nav2.goal_error), "stopped": nav2.stopped,
               "frames": len(carried[0]) if carried else 0}]
-    result = PickAndPlace(seed, kitchen, plan, motion, door, bottle_pose, phases, hands, np.asarray(place_at),
+    result = PickAndPlace(seed, kitchen, plan, first.chosen, motion, door, bottle_pose, phases, hands, np.asarray(place_at),
                           walks, config=config)
     result.checks = evaluate(result)
     result.checks["walks_reached"] = bool(nav1.reached and nav2.reached)

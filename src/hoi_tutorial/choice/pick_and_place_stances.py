@@ -3,7 +3,7 @@ box in that module's docstring, where the body stands and how far it bends at th
 
 - :func:`open_stance`, stance A, to take the handle: §6.3's walk goal (the first matched keyframe's pelvis)
   facing the cabinet, or the nearest 5 cm shift of it from which a bend reaches the closed handle and the body
-  stays clear of the door's first half swing.
+  stays clear of the door's first half swing, its feet (points below 15 cm) of the whole swing.
 - :func:`take_stance`, the stances B, to hold the opened door and take the bottle (the co-temporal schedule of
   §6.3, Eq. 24): positions and headings in front of the cabinet from which bends reach the opened handle with the
   door hand and the bottle, then the carry point, with the body clear of the opened cabinet there and of the
@@ -37,6 +37,8 @@ __all__ = [
 
 
 # ----------------------------------------------------------------------------- shared helpers
+
+_FEET_HEIGHT = 0.15  # metres: sample points below this are the feet, which stay put while the door opens (ours)
 
 
 def item_radius(item) -> float:
@@ -82,11 +84,12 @@ def open_stance(body, cabinet, task, base_xy, door_side, grid, rng, config):
     """Stance A ``(xy (2,), heading, bend, source)`` to take the handle: the first matched keyframe's pelvis
     (§6.3's walk goal) facing the cabinet, or the nearest 5 cm shift of it (sideways, back; free on the walking
     grid) from which a bend reaches the closed handle and the body keeps ``stance_margin`` from the door over
-    the first half of its swing."""
+    the first half of its swing, the feet over the whole swing (the door's lower edge passes over the toes)."""
     front = cabinet.rotation[:, 1]
     heading = heading_of(-front)
     q = float(task.opening)
     sweep = [cabinet.with_params(door_angle=float(a)) for a in np.linspace(0.0, q / 2, 4)]
+    full_sweep = sweep + [cabinet.with_params(door_angle=float(a)) for a in np.linspace(q / 2, q, 5)[1:]]
     base = np.asarray(base_xy, dtype=np.float64)[:2]
     right = right_xyz(heading)[:2]
     offsets = sorted(((a, b) for a in 0.05 * np.arange(-6, 7) for b in 0.05 * np.arange(-2, 9)),
@@ -102,7 +105,9 @@ def open_stance(body, cabinet, task, base_xy, door_side, grid, rng, config):
             continue
         points = _trunk_points(body, root, heading, ankles, feet, [(0.0, 0.0), (h, alpha)], config.style)
         margin = config.stance_margin + config.body_radius
-        if not (_clear(points[:1], sweep, margin) and _clear(points[1:], sweep[:2], margin)):
+        low = points[:1, points[0, :, 2] < _FEET_HEIGHT]  # the feet stay planted while the whole door swings
+        if not (_clear(points[:1], sweep, margin) and _clear(points[1:], sweep[:2], margin)
+                and _clear(low, full_sweep, margin)):
             continue
         source = "keyframe" if side == 0 and back == 0 else f"keyframe shifted {side:+.2f} m right, {back:+.2f} m back"
         return xy, heading, (h, alpha), source
