@@ -195,3 +195,19 @@ def test_eq_24s_own_hands_cross_the_arms_where_the_scheduler_says_the_door_is_he
     assert eq24.checks["arms_crossed"] and eq24.checks["door_hand_across"] > 0.2
     assert not run0.checks["arms_crossed"]
     assert eq24.checks["door_opened"] and eq24.checks["bottle_out"] and eq24.checks["placed"]
+
+
+def test_the_schedule_survey_agrees_with_the_schedules_it_summarises(run0):
+    survey = pp.schedule_survey(3)
+    assert [r["kitchen"] for r in survey] == [0, 1, 2]
+    for r in survey:
+        plan = pp.cabinet_schedule(r["kitchen"])
+        assert r["eq24"] == plan.chosen.schedule.name and r["cotemporal"] == plan.chosen.schedule.cotemporal
+        assert r["costs"] == {c.schedule.name: c.cost for c in plan.candidates}
+        crossing = {c.schedule.name for c in plan.candidates if c.schedule.cotemporal
+                    and not scheduler.held_on_its_side(plan.task, c.schedule.auxiliary_hand)}
+        assert r["across"] == (r["eq24"] in crossing) and r["uncrossed"] not in crossing
+        assert r["costs"][r["uncrossed"]] == min(v for k, v in r["costs"].items() if k not in crossing)
+    assert survey[0]["eq24"] == run0.eq24.schedule.name
+    with pytest.raises(ValueError, match="n_kitchens: expected a positive int"):
+        pp.schedule_survey(0)

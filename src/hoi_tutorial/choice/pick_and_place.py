@@ -70,14 +70,16 @@ autoencoder, the goal library, the locomotion database) follow their own presets
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
+import sys
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 import torch
 
-from ..infra import check_scale, scaled_config
+from ..infra import check_scale, load_or_build, scaled_config
 from ..world.kinematics import forward_kinematics, solve_limb_ik
 from ..world.mocap.body_plan import ELBOW_POLE, SIDES, PlanBody, check_betas, hand_on_point, plan_to_motion
 from ..world.mocap.handles import handle_circle
@@ -105,6 +107,7 @@ __all__ = [
     "pick_and_place_config",
     "cabinet_kitchen",
     "cabinet_schedule",
+    "schedule_survey",
     "PickAndPlace",
     "pick_and_place",
     "body_points",  # from pick_and_place_checks, re-exported
@@ -620,6 +623,36 @@ def cabinet_schedule(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig(
     start = kitchen.start_positions(config.n_starts, seed=seed)[0]
     current = KeyPose.standing(start, heading_of(kitchen.furniture_of("cabinet").translation[:2] - start))
     return scheduler.plan_task(kitchen, 0, current, matcher, config.scheduler, config.environment)
+
+
+def schedule_survey(n_kitchens: int = 20, config: PickAndPlaceConfig = PickAndPlaceConfig()) -> list[dict]:
+    """Eq. 24 in the demo kitchens ``0 .. n_kitchens - 1`` (:func:`cabinet_schedule`), built once, then loaded.
+
+    Returns one dictionary per kitchen: ``kitchen``; ``eq24``, the name of the schedule Eq. 24 chooses, and
+    ``cotemporal``; ``across``, whether that is a co-temporal schedule holding the door across the body
+    (``scheduler.held_on_its_side`` False); ``uncrossed``, the name of ``scheduler.cheapest_uncrossed``'s
+    choice, and ``uncrossed_cotemporal``; ``costs``, Eq. 24's cost per schedule name (inf: not feasible).
+    """
+    if isinstance(n_kitchens, bool) or not isinstance(n_kitchens, int) or n_kitchens < 1:
+        raise ValueError(f"n_kitchens: expected a positive int, got {n_kitchens!r}")
+    if not isinstance(config, PickAndPlaceConfig):
+        raise ValueError(f"config: expected a PickAndPlaceConfig (pick_and_place_config), got {type(config).__name__}")
+
+    def build():
+        rows = []
+        for k in range(n_kitchens):
+            plan = cabinet_schedule(k, config)
+            chosen = plan.chosen.schedule
+            uncrossed = scheduler.cheapest_uncrossed(plan.task, plan.candidates).schedule
+            rows.append({"kitchen": k, "eq24": chosen.name, "cotemporal": chosen.cotemporal,
+                         "across": bool(chosen.cotemporal
+                                        and not scheduler.held_on_its_side(plan.task, chosen.auxiliary_hand)),
+                         "uncrossed": uncrossed.name, "uncrossed_cotemporal": uncrossed.cotemporal,
+                         "costs": {c.schedule.name: float(c.cost) for c in plan.candidates}})
+        return rows
+
+    key = {"n_kitchens": n_kitchens, "config": dataclasses.asdict(config)}
+    return load_or_build("choice_schedule_survey", key, build, code=(env, scheduler, sys.modules[__name__]))
 
 
 def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig()) -> PickAndPlace:
