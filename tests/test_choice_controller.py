@@ -214,3 +214,13 @@ def test_blended_pose_carries_the_previous_pose_into_the_next_root_frame(trained
     turning = update[:, 2].abs() > 0.02
     if bool(turning.any()):
         assert float((wrong[turning, :66] - nxt[turning, :66]).abs().max()) > float(error[turning].max())
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA")
+def test_the_cached_controller_trained_on_cuda_comes_back_wholly_on_the_cpu(tmp_cache):
+    # training moves the model to CUDA; the PAE it shares with the caller must stay on the CPU
+    config = ctl.controller_config(clips=1, steps=4, unroll_steps=2, phase_steps=4, hidden=32, gating_hidden=16,
+                                   n_experts=2, batch_size=8, unroll=3)
+    trained = ctl.trained_controller(config, device="cuda")
+    tensors = [*trained.model.named_parameters(), *trained.model.named_buffers()]
+    assert [name for name, t in tensors if t.device.type != "cpu"] == []

@@ -317,3 +317,12 @@ def test_synthetic_data_config_checks_the_minimum():
 
     with pytest.raises(ValueError, match="min_sequences"):
         data.synthetic_data_config("sit", min_sequences=0)
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA")
+def test_the_reverse_prior_trains_on_cuda(tmp_cache):
+    # the state helpers' ground-plane masks are made on the batch's device (own-prediction steps use them)
+    clips = [generate_clip("walk", seed=0), generate_clip("sit", seed=0)]
+    config = mp.prior_config(steps=6, width=32, latent=4, batch_size=8)
+    model, result = mp.train_reverse_prior(clips, config, device="cuda", progress=False)
+    assert next(model.parameters()).device.type == "cuda" and np.isfinite(result.losses).all()

@@ -215,11 +215,12 @@ def test_training_runs_scheduled_sampling_and_lowers_the_loss(tmp_cache):
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA")
-@pytest.mark.parametrize("kind", ["samp", "nsm"])
-def test_training_runs_on_cuda_with_the_data_set_on_the_cpu(tmp_cache, kind):
-    # the data set stays on the CPU; own-prediction steps (P = 0 from the start) move what the network reads
+@pytest.mark.parametrize("kind, own_inputs", [("samp", "recomputed"), ("nsm", "recomputed"), ("samp", "ground_truth")])
+def test_training_runs_on_cuda_with_the_data_set_on_the_cpu(tmp_cache, kind, own_inputs):
+    # the data set stays on the CPU; own-prediction steps (P = 0 from the start) move what the network reads,
+    # the goal-feature mask of the "ground_truth" variant included
     data = md.motion_data(_tiny_data_config(), "train")
-    config = _tiny_model_config(epochs=1, c1=0.0, c2=0.5, model=kind)
+    config = _tiny_model_config(epochs=1, c1=0.0, c2=0.5, model=kind, own_inputs=own_inputs)
     model, result = mn.train_motion_model(data, config, device="cuda")
     assert model.x_mean.device.type == "cuda" and np.isfinite(result.losses).all()
     assert result.extra["teacher_forcing"][-1] == 0.0

@@ -61,6 +61,7 @@ network 3 × 512 → 3 × 128; experts (not stated in CHOICE; DeepPhase 8) → 4
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import sys
@@ -489,7 +490,8 @@ def trained_controller(config: ControllerConfig, device="cpu", progress: bool = 
 
     def build():
         data = controller_data(config, pae)
-        model, result = train_controller(data, config, pae, device=device, progress=progress)
+        # a copy: training moves the model, and with it its PAE, to ``device``; the shared PAE stays on the CPU
+        model, result = train_controller(data, config, copy.deepcopy(pae), device=device, progress=progress)
         return {"state": state_dict_to_cpu(model), "losses": torch.tensor(result.losses),
                 "seconds": float(result.seconds), "n_frames": len(data.x), "final_loss": result.final_loss}
 

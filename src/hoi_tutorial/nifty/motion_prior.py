@@ -111,7 +111,8 @@ def heading_state(prev: PoseTrack, cur: PoseTrack, fps: float = FPS) -> torch.Te
     """
     root_rot = cur.local_rotations[..., 0, :, :]
     _, to_heading = _heading(root_rot)
-    origin = cur.root_position * torch.tensor([1.0, 1.0, 0.0], dtype=cur.root_position.dtype)
+    origin = cur.root_position * torch.tensor([1.0, 1.0, 0.0], dtype=cur.root_position.dtype,
+                                                device=cur.root_position.device)
     rel_rot = to_heading @ root_rot
     ang = matrix_to_axis_angle(root_rot @ prev.local_rotations[..., 0, :, :].transpose(-1, -2)) * fps
     parts = [
@@ -130,7 +131,8 @@ def step_target(cur: PoseTrack, nxt: PoseTrack) -> torch.Tensor:
     """What the decoder must predict to go from ``cur`` to ``nxt``: ``(..., STEP_SIZE)``."""
     root_rot = cur.local_rotations[..., 0, :, :]
     _, to_heading = _heading(root_rot)
-    origin = cur.root_position * torch.tensor([1.0, 1.0, 0.0], dtype=cur.root_position.dtype)
+    origin = cur.root_position * torch.tensor([1.0, 1.0, 0.0], dtype=cur.root_position.dtype,
+                                                device=cur.root_position.device)
     return torch.cat(
         [
             (to_heading @ (nxt.root_position - origin)[..., None])[..., 0],
@@ -154,7 +156,8 @@ def apply_step(cur: PoseTrack, step: torch.Tensor, offsets: torch.Tensor) -> Pos
     root_rot = cur.local_rotations[..., 0, :, :]
     yaw, _ = _heading(root_rot)
     from_heading = rotation_about_z(yaw)
-    origin = cur.root_position * torch.tensor([1.0, 1.0, 0.0], dtype=cur.root_position.dtype)
+    origin = cur.root_position * torch.tensor([1.0, 1.0, 0.0], dtype=cur.root_position.dtype,
+                                                device=cur.root_position.device)
     root = origin + (from_heading @ step[..., 0:3, None])[..., 0]
     root_orient = from_heading @ rotation_6d_to_matrix(step[..., 3:9])
     joints6d = matrix_to_rotation_6d(cur.local_rotations[..., 1:, :, :])

@@ -256,7 +256,7 @@ def train_motion_model(data: MotionData, config: MotionNetConfig, device="cpu",
                                           data.goal_directions[nxt].to(dev), goal_actions[nxt].to(dev))
                             voxels[:, t + 1] = data.voxels(nxt, root.cpu(), sensor=sensor).to(dev)
                         else:
-                            x = torch.where(mask, inputs[:, t + 1], pred[:, :SAMP_STATE_SIZE])
+                            x = torch.where(mask.to(dev), inputs[:, t + 1], pred[:, :SAMP_STATE_SIZE])
                         inputs[:, t + 1] = x
                     else:
                         x, root = inputs[:, t + 1], data.roots[frames[:, t + 1]].to(dev)
