@@ -3,11 +3,14 @@
 with stitched toy-mocap motions, and errors."""
 import numpy as np
 import pytest
+import torch
 from hypothesis import given, strategies as st
 
 from hoi_tutorial.choice import locomotion as LOC, navigation as NAV
 from hoi_tutorial.world.mocap import standing_pose
+from hoi_tutorial.world.motion import Motion
 from hoi_tutorial.world.scenes import make_room
+from hoi_tutorial.world.skeleton import joint_index
 
 CELL = 0.05
 
@@ -274,6 +277,32 @@ def test_a_matched_motion_that_collides_is_rejected_for_the_next_nearest(databas
     assert window == first_free != nearest and rejected[0] == nearest
     assert list(rejected) == [int(w) for w in order[:collides.index(False)]]
     assert last == database.windows[window, 2] and distance > 0.0
+
+
+def test_placed_limbs_are_the_stitched_motions_and_a_caller_can_reject_them(database):
+    origin, heading = np.array([3.0, 2.5]), 0.3
+    walking = np.flatnonzero(np.linalg.norm(database.features[:, 2:4], axis=1) > 1.0)
+    nearest = int(walking[0])
+    _, s, e = database.windows[nearest]
+    # the placed limb points are the joints of the motion moved so that its first root frame is (origin, heading)
+    yaw = heading - float(database.heading[s])
+    c, si = np.cos(yaw), np.sin(yaw)
+    shift = origin - np.array([c * database.origin[s, 0] - si * database.origin[s, 1],
+                               si * database.origin[s, 0] + c * database.origin[s, 1]])
+    piece = Motion(torch.as_tensor(database.local_rotations[s:e + 1]), torch.as_tensor(database.root_position[s:e + 1]))
+    moved = piece.transformed(yaw, np.r_[shift, 0.0]).joints[:, [joint_index(n) for n in LOC.LIMB_JOINTS]]
+    placed = LOC.placed_limb_points(database, nearest, origin, heading)
+    np.testing.assert_allclose(placed, moved.double().numpy(), atol=1e-4)
+    # a clear() that refuses the nearest motion's wrists (a box around its last right-wrist point) passes it over
+    box = placed[-1, LOC.LIMB_JOINTS.index("right_wrist")]
+
+    def clear(points):
+        return not np.any(np.all(np.abs(points - box) < 0.05, axis=-1))
+
+    query = database.features[nearest]
+    window, _, _, rejected = LOC.select_window(database, EMPTY, query, origin, heading, clear=clear)
+    assert window != nearest and rejected[0] == nearest
+    assert clear(LOC.placed_limb_points(database, window, origin, heading))
 
 
 def test_a_motion_is_cut_at_its_frame_nearest_the_subgoal(database):

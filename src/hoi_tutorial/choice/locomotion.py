@@ -34,7 +34,8 @@ Choices the paper does not state, ours (the path's are in ``choice.navigation``)
   with 0.1, 20 of 30 (24 within 0.5 m, median 0.18 m; none collides). The rest stop short ("no match"),
   mostly walking past a goal the toy walks cannot step back to.
 - **Selection.** The ``candidates`` (16) nearest motions are tried in order; each is cut at its frame
-  nearest the sub-goal, and skipped when it collides or when it ends neither within ``goal_tolerance`` of
+  nearest the sub-goal, and skipped when it collides (its root on the grid's obstacle cells; with a caller's
+  ``clear``, its elbows, wrists, knees, ankles or feet in the scene) or when it ends neither within ``goal_tolerance`` of
   the goal nor lower on ``T`` than it starts (it would not bring the character nearer). No blending at
   the seams: the root is continuous on the ground by construction, the pose is the database's.
 - ``goal_tolerance`` 0.3 m (window ends lie 0.3–0.5 m apart at walking speed), at most ``max_segments``
@@ -65,6 +66,7 @@ from .navigation import (FEATURE_PARTS, NavigationConfig, NavigationGrid, Naviga
 
 __all__ = [
     "KEY_JOINTS",
+    "LIMB_JOINTS",
     "FEATURE_LAYOUT",
     "FEATURE_SIZE",
     "frame_features",
@@ -75,6 +77,7 @@ __all__ = [
     "motion_database",
     "match",
     "window_collides",
+    "placed_limb_points",
     "select_window",
     "MatchedSegment",
     "Navigation",
@@ -83,6 +86,9 @@ __all__ = [
 
 # The navigation features N of §6.2, in the paper's order.
 KEY_JOINTS = ("left_wrist", "right_wrist", "pelvis")  # §6.3's key joints: left hand, right hand, hip
+# the joints that swing beyond the root's clearance, checked against the scene with a caller's ``clear``
+LIMB_JOINTS = ("left_elbow", "right_elbow", "left_wrist", "right_wrist", "left_knee", "right_knee", "left_ankle",
+               "right_ankle", "left_foot", "right_foot")
 FEATURE_LAYOUT, FEATURE_SIZE = feature_layout(FEATURE_PARTS)
 _POSE_SIZE = FEATURE_SIZE - 4  # the part of N a pose carries (after d_g, p_g)
 
@@ -175,13 +181,16 @@ class MotionDatabase:
         clip_offsets: (C + 1,) int, clip ``c`` holds frames ``clip_offsets[c] : clip_offsets[c + 1]``.
         origin: (F, 2) metres, heading: (F,) radians — each frame's root frame.
         pose: (F, 29) each frame's pose part of ``N``.
+        limb_points: (F, 10, 3) metres, world frame of the clips: elbows, wrists, knees, ankles and feet
+            (``LIMB_JOINTS``), which swing beyond the root's clearance (:func:`select_window`'s ``clear``).
         windows: (W, 3) int ``[clip, first frame, last frame]`` (frames indexed into ``F``).
         features: (W, 33) ``N`` of each motion.
         scales: (33,) the distance's multipliers; tree: ``cKDTree`` over ``features · scales``.
     """
 
     def __init__(self, arrays: dict, weights=NavigationConfig().weights):
-        for name in ("local_rotations", "root_position", "clip_offsets", "origin", "heading", "pose", "windows", "features"):
+        for name in ("local_rotations", "root_position", "clip_offsets", "origin", "heading", "pose", "limb_points",
+                     "windows", "features"):
             setattr(self, name, np.asarray(arrays[name]))
         check_shape(self.features, (None, FEATURE_SIZE), "features")
         self.scales = _group_scales(self.features, weights)
@@ -240,10 +249,12 @@ def build_database(config: NavigationConfig = NavigationConfig()) -> dict:
     offsets = np.concatenate([[0], np.cumsum([len(c) for c in clips])]).astype(np.int64)
     origin, heading, pose = np.concatenate(origins), np.concatenate(headings), np.concatenate(poses)
     windows = _windows(origin, offsets, config.keyframe_step, config.segment_length)
+    limbs = [c.joints[:, [joint_index(n) for n in LIMB_JOINTS]] for c in clips]
     return {
         "local_rotations": torch.cat([c.local_rotations for c in clips]).float().numpy(),
         "root_position": torch.cat([c.root_position for c in clips]).float().numpy(),
         "clip_offsets": offsets, "origin": origin, "heading": heading, "pose": pose, "windows": windows,
+        "limb_points": torch.cat(limbs).float().numpy(),
         "features": _window_features(origin, heading, pose, windows),
     }
 
@@ -285,6 +296,17 @@ def _placed_roots(database: MotionDatabase, window: int, origin, heading) -> np.
     return world + np.asarray(origin, dtype=np.float64)
 
 
+def placed_limb_points(database: MotionDatabase, window: int, origin, heading) -> np.ndarray:
+    """The motion's limb joints (n, 10, 3) metres (``LIMB_JOINTS``), placed as :func:`_placed_roots` places its
+    root."""
+    _, s, e = database.windows[window]
+    points = np.asarray(database.limb_points[s:e + 1], dtype=np.float64)
+    local = _to_root(points[..., :2] - database.origin[s], database.heading[s])
+    c, si = np.cos(heading), np.sin(heading)
+    world = np.stack([c * local[..., 0] - si * local[..., 1], si * local[..., 0] + c * local[..., 1]], axis=-1)
+    return np.concatenate([world + np.asarray(origin, dtype=np.float64), points[..., 2:]], axis=-1)
+
+
 def window_collides(database: MotionDatabase, grid: NavigationGrid, window: int, origin, heading) -> bool:
     """Whether motion ``window``, started at the root frame ``(origin (2,), heading)``, puts its root in a
     ``grid.collision`` cell or off the grid at any frame."""
@@ -292,11 +314,13 @@ def window_collides(database: MotionDatabase, grid: NavigationGrid, window: int,
 
 
 def select_window(database: MotionDatabase, grid: NavigationGrid, query, origin, heading, *, candidates: int = 16,
-                  keep: Optional[Callable] = None, cut_at=None):
+                  keep: Optional[Callable] = None, cut_at=None, clear: Optional[Callable] = None):
     """The nearest of the ``candidates`` nearest motions to ``query`` (33,) that does not collide when started
     at the root frame ``(origin (2,), heading)``, and whose end (2,) metres passes ``keep(end)`` when given:
     CHOICE §6.2's "least deviation and no collision". With ``cut_at`` (2,) metres, each motion is cut at
-    its frame nearest that point (after its first) before it is checked.
+    its frame nearest that point (after its first) before it is checked. The root is checked on the grid;
+    with ``clear`` given, the limbs too: ``clear(points (n, 10, 3) metres) -> bool``, False for a motion whose
+    elbows, wrists, knees, ankles or feet enter the scene (:func:`placed_limb_points`).
 
     Returns:
         ``(window, last, distance, rejected)``: the index (None when every candidate fails), its last frame
@@ -310,7 +334,8 @@ def select_window(database: MotionDatabase, grid: NavigationGrid, query, origin,
         roots = _placed_roots(database, window, origin, heading)
         if cut_at is not None:
             roots = roots[:2 + int(np.argmin(np.linalg.norm(roots[1:] - np.asarray(cut_at), axis=1)))]
-        if np.any(grid.collides(roots)) or (keep is not None and not keep(roots[-1])):
+        if np.any(grid.collides(roots)) or (keep is not None and not keep(roots[-1])) or (
+                clear is not None and not clear(placed_limb_points(database, window, origin, heading)[:len(roots)])):
             rejected.append(window)
             continue
         return window, int(database.windows[window, 1]) + len(roots) - 1, float(distance), tuple(rejected)
@@ -373,7 +398,7 @@ def _rotate(xy, yaw: float) -> np.ndarray:
     return np.array([c * xy[0] - s * xy[1], s * xy[0] + c * xy[1]])
 
 
-def _match_next(grid, database, plan, path, origin, heading, pose, config):
+def _match_next(grid, database, plan, path, origin, heading, pose, config, clear=None):
     """The next motion from the root frame ``(origin, heading)`` with ``pose``: its sub-goal ``segment_length``
     along ``path``, brought to half the distance while no candidate fits. Returns ``select_window``'s
     answer and the sub-goal."""
@@ -388,14 +413,15 @@ def _match_next(grid, database, plan, path, origin, heading, pose, config):
         arriving = plan.goal_direction if np.allclose(subgoal, plan.goal) else direction_at(path, subgoal)
         query = query_features(pose, origin, heading, subgoal, arriving)
         found = select_window(database, grid, query, origin, heading, candidates=config.candidates, keep=nearer,
-                              cut_at=subgoal)
+                              cut_at=subgoal, clear=clear)
         if found[0] is not None or every / 2 < config.goal_tolerance:
             return found, subgoal
         every /= 2
 
 
 def follow_path(grid: NavigationGrid, database: MotionDatabase, start, goal, goal_direction, *,
-                start_heading: Optional[float] = None, config: NavigationConfig = NavigationConfig()) -> Navigation:
+                start_heading: Optional[float] = None, config: NavigationConfig = NavigationConfig(),
+                clear: Optional[Callable] = None) -> Navigation:
     """Walk from ``start`` to ``goal`` (2,) metres, arriving to face ``goal_direction`` (2,), by matching and
     stitching motions (CHOICE §6.2).
 
@@ -404,7 +430,8 @@ def follow_path(grid: NavigationGrid, database: MotionDatabase, start, goal, goa
     ``T``, takes its first sub-goal (:func:`split_path`), queries ``N`` with the current pose and stitches
     the nearest motion that fits (:func:`select_window`), its first root frame on the character's. It stops
     when the root is within ``config.goal_tolerance`` of the goal, when nothing fits, or after
-    ``config.max_segments`` motions.
+    ``config.max_segments`` motions. ``clear`` (optional) also rejects motions whose limbs enter the scene
+    (:func:`select_window`).
 
     Raises:
         ValueError: as :func:`plan_path`.
@@ -421,7 +448,8 @@ def follow_path(grid: NavigationGrid, database: MotionDatabase, start, goal, goa
             stopped = "reached"
             break
         path = path_from(grid, plan.time, origin, plan.goal, plan.goal_direction, config.near_goal)
-        (window, e, distance, rejected), subgoal = _match_next(grid, database, plan, path, origin, heading, pose, config)
+        (window, e, distance, rejected), subgoal = _match_next(grid, database, plan, path, origin, heading, pose, config,
+                                                               clear)
         if window is None:
             stopped = "no match"
             break

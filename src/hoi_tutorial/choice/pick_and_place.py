@@ -19,8 +19,10 @@ The algorithm box, as this module runs it (:func:`pick_and_place`):
    found are tried, most clearance first, until the motion at the cabinet (step 5) is free of collisions with
    the door hand on its handle.
 4. **The walk** (§6.2, Eq. 23, ``choice.navigation.navigation_grid`` and ``choice.locomotion.follow_path``):
-   from ``kitchen.start_positions`` (in order) to A; a walk that ends farther than ``goal_tolerance`` is a
-   miss and the next start is tried (every try is recorded in ``walks``); the pose then settles onto A.
+   from ``kitchen.start_positions`` (in order) to A; a matched motion whose elbows, wrists, knees, ankles or
+   feet come within ``body_radius`` of the scene is passed over (ours: the matching checks the root on its grid); a walk that
+   ends farther than ``goal_tolerance`` is a miss and the next start is tried (every try is recorded in
+   ``walks``); the pose then settles onto A.
 5. **At the cabinet** (Fig. 6's states as wrist paths): the door hand reaches the handle and pulls it on
    its circle about the hinge to ``task.opening`` (minimum-jerk in time); the body turns to face the handle
    while the door's edge passes, then steps (``world.mocap.standing.step_feet``) behind the door to B; the
@@ -376,9 +378,21 @@ def _path(points, s) -> np.ndarray:
 # ----------------------------------------------------------------------------- the motion pieces
 
 
-def _walk(grid, database, start, goal, goal_direction, start_heading, config):
+def _limbs_clear(kitchen: Kitchen, config):
+    """``clear(points (n, 10, 3)) -> bool`` for ``locomotion.follow_path``: the limb joints keep ``body_radius``
+    from every object of ``kitchen`` and the walls."""
+    walls = env.room_sdf(kitchen.size, floor=False)
+
+    def clear(points) -> bool:
+        flat = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        return bool(min(float(np.min(walls(flat))), *(float(np.min(o.sdf(flat))) for o in kitchen.objects))
+                    >= config.body_radius)
+    return clear
+
+
+def _walk(grid, database, start, goal, goal_direction, start_heading, config, kitchen):
     return locomotion.follow_path(grid, database, start, goal, goal_direction, start_heading=start_heading,
-                                  config=config.navigation)
+                                  config=config.navigation, clear=_limbs_clear(kitchen, config))
 
 
 def _last_pose(motion: Motion) -> tuple:
@@ -696,7 +710,7 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
     walk1, tried = None, []
     for k, start in enumerate(starts):
         try:
-            nav = _walk(grid, database, start, stance_xy, front[:2], None, config)
+            nav = _walk(grid, database, start, stance_xy, front[:2], None, config, kitchen)
         except ValueError as error:
             tried.append({"start": start.tolist(), "error": str(error)})
             continue
@@ -768,7 +782,7 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
     for name, n in cab_phases:
         phases.append((name, at, at + n))
         at += n
-    nav2 = _walk(grid2, database, exit_xy, table_xy, -_forward2(table_heading), take_heading, config)
+    nav2 = _walk(grid2, database, exit_xy, table_xy, -_forward2(table_heading), take_heading, config, open_kitchen)
     carried = [nav2.motion.slice(1, len(nav2.motion))] if nav2.motion is not None and len(nav2.motion) > 1 else []
     last = _last_pose(carried[0]) if carried else _last_pose(cab_motion)
     settle2 = _settle(last, (table_xy, table_heading), body)
