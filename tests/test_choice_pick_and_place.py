@@ -104,12 +104,29 @@ def test_the_collision_measure_flags_a_door_kept_shut_and_a_bottle_through_the_w
     assert all(run0.checks[k] == v for k, v in fresh.items())
 
 
-def test_the_same_seed_gives_the_same_motion(run0):
-    again = pp.pick_and_place(0)
-    assert np.array_equal(again.motion.local_rotations.numpy(), run0.motion.local_rotations.numpy())
-    assert np.array_equal(again.motion.root_position.numpy(), run0.motion.root_position.numpy())
-    assert np.array_equal(again.door_angle, run0.door_angle) and np.array_equal(again.bottle_pose, run0.bottle_pose)
-    assert again.phases == run0.phases and again.hands == run0.hands
+def test_the_same_seed_gives_the_same_motion_and_the_cache_gives_it_back(run0):
+    """The cached run is computed again (determinism), stored, and loaded back whole: the motion, the door and
+    the bottle, the phases, the walks, the checks, and the schedule played and chosen with their keyframes."""
+    built = pp.cached_pick_and_place(0)  # not cached yet in this module's cache: runs the demo again
+    loaded = pp.cached_pick_and_place(0)
+    for again in (built, loaded):
+        assert np.array_equal(again.motion.local_rotations.numpy(), run0.motion.local_rotations.numpy())
+        assert np.array_equal(again.motion.root_position.numpy(), run0.motion.root_position.numpy())
+        assert np.array_equal(again.door_angle, run0.door_angle) and np.array_equal(again.bottle_pose, run0.bottle_pose)
+        assert again.phases == run0.phases and again.hands == run0.hands and again.walks == run0.walks
+        assert np.array_equal(again.place_at, run0.place_at)
+        assert set(again.checks) == set(run0.checks)
+        assert all(np.array_equal(np.asarray(again.checks[k]), np.asarray(v)) for k, v in run0.checks.items())
+        assert again.plan.chosen.schedule == run0.plan.chosen.schedule and again.eq24.schedule == run0.eq24.schedule
+        assert [c.cost for c in again.plan.candidates] == [c.cost for c in run0.plan.candidates]
+        assert [(k.action, k.hand, k.object) for k in again.plan.keyframes] == \
+            [(k.action, k.hand, k.object) for k in run0.plan.keyframes]
+        assert all(np.array_equal(a.position, b.position) for a, b in zip(again.plan.keyframes, run0.plan.keyframes))
+        assert np.array_equal(again.kitchen.items[0].pose, run0.kitchen.items[0].pose)
+    with pytest.raises(ValueError, match="seed: expected a non-negative int"):
+        pp.cached_pick_and_place(-1)
+    with pytest.raises(ValueError, match="config: expected a PickAndPlaceConfig"):
+        pp.cached_pick_and_place(0, config={"hands": "eq24"})
 
 
 def test_the_kitchen_has_a_bottle_inside_the_closed_cabinet():

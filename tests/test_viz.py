@@ -410,6 +410,61 @@ def test_animation_moves_its_moving_objects(small_motion, chair):
         viz.animate_motion(small_motion, moving_objects=[chair])
 
 
+def _embedded_frames(html):
+    """The frames an animation page embeds, as (H, W, 4) pixel arrays."""
+    import base64
+    import io
+    import re
+
+    from PIL import Image
+
+    found = re.findall(r'data:image/png;base64,([^"]+)"', html.replace("\\n", ""))
+    return [np.asarray(Image.open(io.BytesIO(base64.b64decode(data)))) for data in found]
+
+
+def test_to_html_embeds_the_frames_to_jshtml_draws(small_motion, chair):
+    """Each frame drawn once (to_html) gives the pixels of matplotlib's own to_jshtml, which draws it twice;
+    a moving object that stops, moves and stops again is redrawn only when it changes, and still shows where it is."""
+
+    def moved(frame):  # still for 4 frames, then 2 cm a frame, still again from frame 8
+        shift = np.eye(4)
+        shift[0, 3] = 0.02 * min(max(frame - 3, 0), 5)
+        return chair.with_pose(shift @ chair.pose)
+
+    def animation():
+        return viz.animate_motion(small_motion, objects=[chair], moving_objects=[moved], stride=1, figsize=(3, 3),
+                                  dpi=40, title="moving chair")
+
+    ours = _embedded_frames(viz.to_html(animation()))
+    with matplotlib.rc_context({"animation.embed_limit": 50.0}):
+        theirs = _embedded_frames(animation().to_jshtml(default_mode="loop"))
+    assert len(ours) == len(theirs) == 12
+    for a, b in zip(ours, theirs):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_moving_object_reuse_matches_redrawing_every_frame(small_motion, chair, monkeypatch):
+    """The polygons of a moving object kept from the last frame (same shape and pose) are the ones a fresh
+    mesh gives: the frames equal those drawn with the reuse turned off."""
+    door = _optional("hoi_tutorial.world.objects").make_object("cabinet", seed=0)
+    angles = [0.0, 0.0, 0.0, 0.3, 0.6, 0.9, 0.9, 0.9, 0.5, 0.5, 0.0, 0.0]
+
+    def opening(frame):
+        return door.with_params(door_angle=angles[frame])
+
+    def frames():
+        anim = viz.animate_motion(small_motion, moving_objects=[opening], stride=1, figsize=(3, 3), dpi=40)
+        return _embedded_frames(viz.to_html(anim))
+
+    kept = frames()
+    monkeypatch.setattr(viz_animation, "_object_key", lambda obj: None)
+    redrawn = frames()
+    assert len(kept) == len(redrawn) == 12
+    for a, b in zip(kept, redrawn):
+        np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(kept[2], kept[5])  # the door opened between frames 2 and 5
+
+
 def test_animation_rejects_bad_input(standing_joints):
     with pytest.raises(ValueError, match=r"\(\*, 22, 3\)"):
         viz.animate_motion(np.zeros((5, 20, 3)))

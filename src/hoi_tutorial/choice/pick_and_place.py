@@ -81,6 +81,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
+from .. import infra, nn, world
 from ..infra import check_scale, load_or_build, scaled_config
 from ..world.kinematics import forward_kinematics, solve_limb_ik
 from ..world.mocap.body_plan import ELBOW_POLE, SIDES, PlanBody, check_betas, hand_on_point, plan_to_motion
@@ -112,6 +113,7 @@ __all__ = [
     "schedule_survey",
     "PickAndPlace",
     "pick_and_place",
+    "cached_pick_and_place",
     "body_points",  # from pick_and_place_checks, re-exported
     "evaluate",  # from pick_and_place_checks, re-exported
 ]
@@ -820,6 +822,52 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
     result.checks["walks_reached"] = bool(nav1.reached and nav2.reached)
     result.seconds = time.perf_counter() - t0
     return result
+
+
+def _index_of(candidate, candidates) -> int:
+    for i, c in enumerate(candidates):
+        if c is candidate:
+            return i
+    raise ValueError("candidate: expected one of the plan's candidates")
+
+
+def cached_pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig()) -> PickAndPlace:
+    """:func:`pick_and_place` through the artifact cache: run once per seed and configuration, then loaded.
+
+    What is stored is what the run computed: the motion, the door angles, the bottle's poses, the phases, the
+    hands, ``place_at``, the walks, the checks, the run's wall time and which candidates were played and chosen by
+    Eq. 24. The kitchen and the schedule's candidates are rebuilt by :func:`cabinet_schedule` (deterministic for the
+    seed; the first step of :func:`pick_and_place`) and the keyframes by ``scheduler.keyframes``. The artifact's key
+    holds the source of the whole of ``choice``, ``world``, ``nn`` and ``infra``: a change in any runs the demo again.
+    """
+    seed = _check_seed(seed)
+    if not isinstance(config, PickAndPlaceConfig):
+        raise ValueError(f"config: expected a PickAndPlaceConfig (pick_and_place_config), got {type(config).__name__}")
+
+    def build():
+        run = pick_and_place(seed, config)
+        motion = run.motion
+        if motion.actions is not None or motion.contacts is not None:
+            raise RuntimeError("pick_and_place: expected a motion without action or contact labels")
+        return {"local_rotations": motion.local_rotations, "root_position": motion.root_position,
+                "betas": motion.betas, "fps": float(motion.fps), "door_angle": run.door_angle,
+                "bottle_pose": run.bottle_pose, "phases": [list(p) for p in run.phases], "hands": dict(run.hands),
+                "place_at": run.place_at, "walks": run.walks, "checks": run.checks, "seconds": float(run.seconds),
+                "chosen": _index_of(run.plan.chosen, run.plan.candidates),
+                "eq24": _index_of(run.eq24, run.plan.candidates)}
+
+    # the kitchens, the body, the motion data, the trained models and their training: all of it shapes the run
+    stored = load_or_build("choice_pick_and_place", {"seed": seed, "config": dataclasses.asdict(config)}, build,
+                           code=(sys.modules[__package__], world, nn, infra))
+    first = cabinet_schedule(seed, config)
+    chosen = first.candidates[stored["chosen"]]
+    place_at = np.asarray(stored["place_at"])
+    plan = scheduler.TaskPlan(first.task, first.candidates, chosen, scheduler.keyframes(first.task, chosen, place_at))
+    motion = Motion(stored["local_rotations"], stored["root_position"], betas=stored["betas"], fps=stored["fps"])
+    return PickAndPlace(seed, first.task.kitchen, plan, first.candidates[stored["eq24"]], motion,
+                        np.asarray(stored["door_angle"]), np.asarray(stored["bottle_pose"]),
+                        [tuple(p) for p in stored["phases"]], dict(stored["hands"]), place_at, stored["walks"],
+                        checks=stored["checks"], seconds=stored["seconds"], config=config)
 
 
 def _forward2(heading: float) -> np.ndarray:

@@ -1,23 +1,31 @@
 """Stick-figure animations of motions, embedded in a page as HTML (no ffmpeg needed).
 
 ``animate_motion`` builds a matplotlib ``FuncAnimation``; ``to_html`` turns it into a
-self-contained JavaScript player (``FuncAnimation.to_jshtml``) and ``show_animation`` returns it
-as an ``IPython.display.HTML`` object, closing the figure so a notebook shows no static copy.
+self-contained JavaScript player (the page ``FuncAnimation.to_jshtml`` writes, with each frame drawn
+once instead of twice) and ``show_animation`` returns it as an ``IPython.display.HTML`` object,
+closing the figure so a notebook shows no static copy. A moving object whose shape and pose did not
+change since the last frame keeps its polygons.
 Frames are subsampled (``stride``, ``max_frames``) and drawn at a modest dpi to keep the page
 small: a 5 s clip (75 frames) at the defaults embeds in 1.5–2.5 MB.
 """
 from __future__ import annotations
 
+import base64
 import math
+from io import BytesIO
+from pathlib import Path
+from tempfile import TemporaryDirectory
 from typing import Callable, Optional, Sequence
 
 import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.animation import FuncAnimation
+from matplotlib.animation import FuncAnimation, HTMLWriter
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection
 from matplotlib.colors import to_rgba
 from matplotlib.transforms import Bbox
+from PIL import Image
 from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
 from .._validate import check_choice
@@ -237,13 +245,20 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), moving_
     # In 3D the axes fill the figure (see _fit_3d_axes), so the caption belongs to the figure.
     caption = fig.suptitle("", fontsize=10, y=0.99, va="top") if view == "3d" else ax.set_title("", fontsize=10)
 
+    last_key = [None] * len(moving)
+
     def update(i: int):
         f = int(frames[i])
         labels = []
-        for collection, m in zip(moving, moving_objects):
-            vertices, faces = _cluster_decimate(*_object_mesh(m(f)), _MAX_OBJECT_FACES)
+        for k, (collection, m) in enumerate(zip(moving, moving_objects)):
+            obj = m(f)
+            key = _object_key(obj)
+            if key is not None and key == last_key[k]:
+                continue  # the same shape and pose as the last frame drawn: its polygons stand
+            vertices, faces = _cluster_decimate(*_object_mesh(obj), _MAX_OBJECT_FACES)
             collection.set_verts(vertices[faces])
             collection.set_facecolor(_shaded_faces(vertices, faces))
+            last_key[k] = key
         for k, s in enumerate(seqs):
             fk = min(f, s.shape[0] - 1)
             pose = s[fk]
@@ -281,8 +296,49 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), moving_
     return anim
 
 
+def _object_key(obj):
+    """What decides a ``ToyObject``'s mesh (category, parameters, pose), or None for anything else."""
+    params = getattr(obj, "params", None)
+    pose = getattr(obj, "pose", None)
+    if not isinstance(params, dict) or not isinstance(pose, np.ndarray):
+        return None
+    return (getattr(obj, "category", None), repr(sorted(params.items())), pose.tobytes())
+
+
+class _DrawnFrameWriter(HTMLWriter):
+    """``HTMLWriter`` that embeds the frame the animation has just drawn on its Agg canvas.
+
+    ``Animation.save`` draws every frame (``draw_idle`` after the update) and then ``grab_frame`` saves the
+    figure, which draws it a second time; here the drawn pixels are encoded as they are, halving the drawing.
+    A canvas that is not Agg, or a figure changed since its draw, goes through ``savefig`` as before.
+    """
+
+    def grab_frame(self, **savefig_kwargs):
+        canvas = self.fig.canvas
+        # Animation.save asks for the figure's own face colour, opaque: what the canvas has drawn
+        kept = (set(savefig_kwargs) <= {"facecolor", "transparent"} and not savefig_kwargs.get("transparent", False)
+                and to_rgba(savefig_kwargs.get("facecolor", self.fig.get_facecolor())) == to_rgba(self.fig.get_facecolor()))
+        if (not self.embed_frames or not kept or self._hit_limit or self.fig.stale
+                or self.frame_format != "png" or not isinstance(canvas, FigureCanvasAgg)
+                or self.dpi != self.fig.dpi or getattr(canvas, "renderer", None) is None):
+            return super().grab_frame(**savefig_kwargs)
+        pixels = np.asarray(canvas.buffer_rgba())
+        width, height = canvas.get_width_height(physical=True)
+        if pixels.shape[:2] != (height, width):
+            return super().grab_frame(**savefig_kwargs)
+        buffer = BytesIO()
+        Image.fromarray(pixels).save(buffer, format="png")
+        data = base64.encodebytes(buffer.getvalue()).decode("ascii")
+        if self._total_bytes + len(data) >= self._bytes_limit:
+            return super().grab_frame()  # HTMLWriter warns and drops this frame and the later ones
+        self._total_bytes += len(data)
+        self._saved_frames.append(data)
+
+
 def to_html(anim: FuncAnimation, default_mode: str = "loop") -> str:
-    """The animation as a self-contained HTML/JavaScript player (``FuncAnimation.to_jshtml``).
+    """The animation as a self-contained HTML/JavaScript player (what ``FuncAnimation.to_jshtml`` writes).
+
+    Each frame is drawn once (``_DrawnFrameWriter``); ``to_jshtml`` draws it twice.
 
     Args:
         anim: an animation from :func:`animate_motion`.
@@ -292,8 +348,11 @@ def to_html(anim: FuncAnimation, default_mode: str = "loop") -> str:
     """
     check_choice(default_mode, ("loop", "once", "reflect"), "default_mode")
     # The default embed limit (20 MB) is far above what animate_motion produces; keep it explicit.
-    with matplotlib.rc_context({"animation.embed_limit": 50.0}):
-        return anim.to_jshtml(default_mode=default_mode)
+    with matplotlib.rc_context({"animation.embed_limit": 50.0}), TemporaryDirectory() as folder:
+        path = Path(folder, "animation.html")
+        writer = _DrawnFrameWriter(fps=1000.0 / anim._interval, embed_frames=True, default_mode=default_mode)
+        anim.save(str(path), writer=writer)
+        return path.read_text()
 
 
 def show_animation(anim: FuncAnimation, default_mode: str = "loop"):
