@@ -129,6 +129,50 @@ def test_the_same_seed_gives_the_same_motion_and_the_cache_gives_it_back(run0):
         pp.cached_pick_and_place(0, config={"hands": "eq24"})
 
 
+def test_the_controller_at_the_cabinet_gets_the_demos_handle_keyframe_and_both_starts(run0):
+    """The goal is the demo's door hand on the handle; the standing start is where the demo's reach begins; the
+    two starts rolled out in one batch give what each gives alone (untrained weights: the wiring, not the skill)."""
+    import torch
+
+    from hoi_tutorial.choice import controller, phase
+    from hoi_tutorial.world.skeleton import joint_index
+
+    config = controller.controller_config("toy")
+    torch.manual_seed(0)
+    model = controller.build_controller(config, phase.build_phase_autoencoder(phase.phase_config(config.phase_scale)))
+    model.eval()
+    out = pp.controller_at_cabinet(run0, model, frames=8, lead=0.5)
+    g = run0.phase("grasp handle")[0]
+    door_wrist = joint_index(f"{run0.hands['door']}_wrist")
+    assert abs(out["wrist_height"] - float(run0.motion.joints[g, door_wrist, 2])) < 1e-5
+    assert abs(out["pelvis_height"] - float(run0.motion.joints[g, joint_index("pelvis"), 2])) < 1e-5
+    assert abs(out["wrist_height"] - run0.plan.task.auxiliary.contact[2]) < 0.02  # the keyframe holds the handle
+    standing, walking = out["starts"]["standing"], out["starts"]["walking"]
+    assert standing["frame"] == run0.phase("reach handle")[0]
+    assert walking["frame"] == run0.phase("walk to cabinet")[1] - 15
+    handle = run0.motion.joints[g, door_wrist].numpy()
+    assert abs(standing["distance"] - float(np.linalg.norm(run0.motion.joints[standing["frame"], door_wrist].numpy()
+                                                           - handle))) < 1e-5
+    # the standing start alone, rolled out with the Kalman goal phase, gives the batch's numbers
+    positions, rotations = controller.key_joint_transforms(run0.motion)
+    window = (g + controller.WINDOW_OFFSETS).clamp(0, len(run0.motion) - 1)
+    side = ("left", "right").index(run0.hands["door"])
+    goal = controller.Goal(positions[window][None].float(), rotations[window][None].float(),
+                           phase.clip_phase(model.phase_model, run0.motion).state()[g][None].float(), torch.tensor([side]))
+    f = standing["frame"]
+    alone = controller.rollout(model, controller.initial_state(model, [run0.motion.slice(0, f + 1)], frame=f), goal, 8,
+                               "kalman")
+    closest = float(np.min(np.linalg.norm(alone.wrist[:, 0, side].numpy() - handle, axis=-1)))
+    assert abs(closest - standing["closest"]["kalman"]) < 1e-4
+    for bad, match in (({"frames": 0}, "frames: expected a positive int"), ({"lead": 0.0}, "lead: expected a positive")):
+        with pytest.raises(ValueError, match=match):
+            pp.controller_at_cabinet(run0, model, **bad)
+    with pytest.raises(ValueError, match="run: expected a PickAndPlace"):
+        pp.controller_at_cabinet("run", model)
+    with pytest.raises(ValueError, match="model: expected a controller.ControllerNet"):
+        pp.controller_at_cabinet(run0, torch.nn.Linear(2, 2))
+
+
 def test_the_kitchen_has_a_bottle_inside_the_closed_cabinet():
     kitchen = pp.cabinet_kitchen(0)
     cabinet, bottle = kitchen.furniture_of("cabinet"), kitchen.items[0]

@@ -28,12 +28,14 @@ Modules, in the order of the paper:
   Table 4 (none, matched, predicted, Kalman-filtered) (§5.1); ``evaluation.table4_runs`` measures them (§8.3.1).
 - ``pick_and_place``: the kitchen demo that joins navigation, the scheduler and Fig. 6's keyframes — walk to the
   cabinet, open it with one hand, take the bottle with the other, put it on the table (§6, §8.3); its stance
-  search in ``pick_and_place_stances`` and its collision checks in ``pick_and_place_checks``. The body there is
-  posed by IK and the toy world's body planner, not yet by the controller.
+  search in ``pick_and_place_stances``, its motion pieces (walks, the plans at the cabinet and the table) in
+  ``pick_and_place_motion`` and its collision checks in ``pick_and_place_checks``. The body there is posed by IK
+  and the toy world's body planner, not yet by the controller.
 """
 from . import (baselines, controller, core, data, environment, evaluation, fields, kalman, locomotion, navigation,
-               paper_numbers, phase, pick_and_place, pick_and_place_checks, pick_and_place_stances, planner, scheduler)
+               paper_numbers, phase, pick_and_place, pick_and_place_checks, pick_and_place_motion, pick_and_place_stances,
+               planner, scheduler)
 
 __all__ = ["baselines", "controller", "core", "data", "environment", "evaluation", "fields", "kalman", "locomotion",
-           "navigation", "paper_numbers", "phase", "pick_and_place", "pick_and_place_checks", "pick_and_place_stances",
-           "planner", "scheduler"]
+           "navigation", "paper_numbers", "phase", "pick_and_place", "pick_and_place_checks", "pick_and_place_motion",
+           "pick_and_place_stances", "planner", "scheduler"]

@@ -48,6 +48,7 @@ Choices that are ours (the paper does not state them, or we simplify):
   shoulders reach; the feet are planted except for the steps at the cabinet (A → B, B → the walk's start)
   and the walks. The mixture-of-experts controller of §5.1 (``choice.controller``) is evaluated
   separately (Table 4) and plays no part here; nor does §6.2's phase-driven interaction motion.
+  :func:`controller_at_cabinet` rolls the toy controller out toward the demo's handle keyframe to show why.
 - **The matched keyframes** give the schedule, the hands and the walk goal; their poses are not imitated
   (the stances and bends above replace them).
 - **The hands** (``config.hands``). Eq. 24 prices single-handed matched keyframes: it sees where each hand grasps,
@@ -79,6 +80,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import torch
 
 from .. import infra, nn, world
 from ..infra import check_scale, load_or_build, scaled_config
@@ -86,12 +88,12 @@ from ..world.kinematics import forward_kinematics
 from ..world.mocap.body_plan import SIDES, PlanBody, check_betas, plan_to_motion
 from ..world.mocap.motion_math import forward_xyz, heading_of
 from ..world.mocap.poses import standing_pose
-from ..world.motion import Motion
+from ..world.motion import FPS, Motion
 from ..world.objects import make_object
 from ..world.scenes import Kitchen, make_kitchen
 from ..world.skeleton import joint_index
 from . import environment as env
-from . import locomotion, navigation, scheduler
+from . import controller, locomotion, navigation, phase, scheduler
 from .environment import EnvironmentConfig, KeyPose, LibraryConfig
 from .navigation import NavigationConfig
 from .pick_and_place_checks import body_distances, body_points, evaluate, handle_at
@@ -110,6 +112,7 @@ __all__ = [
     "PickAndPlace",
     "pick_and_place",
     "cached_pick_and_place",
+    "controller_at_cabinet",
     "body_points",  # from pick_and_place_checks, re-exported
     "evaluate",  # from pick_and_place_checks, re-exported
 ]
@@ -572,6 +575,74 @@ def cached_pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceCo
                         np.asarray(stored["door_angle"]), np.asarray(stored["bottle_pose"]),
                         [tuple(p) for p in stored["phases"]], dict(stored["hands"]), place_at, stored["walks"],
                         checks=stored["checks"], seconds=stored["seconds"], config=config)
+
+
+def controller_at_cabinet(run: PickAndPlace, model, frames: int = 60, lead: float = 1.0) -> dict:
+    """The §5.1 controller given the demo's first hand keyframe, to see whether it could drive the demo's body.
+
+    The goal is the door hand's grasp of the handle (the first frame of ``"grasp handle"``): the four key joints
+    of the demo's IK-posed motion over the 13-sample window there (``controller.key_joint_transforms``), the PAE
+    phase there as the matched goal phase, the door hand working. Each goal-phase source (``controller.VARIANTS``)
+    is rolled out for ``frames`` frames from two starts:
+
+    - ``"standing"``: the pose where the demo's reach begins (stance A, after the walk and the settle), the
+      future root trajectory held in place;
+    - ``"walking"``: the walk ``lead`` seconds before it ends, the future root trajectory on the straight line to
+      the goal's root (``controller.toward_goal``, as Table 4's runs start).
+
+    The state at a start sees only the motion up to it (the PAE's window is clamped there).
+
+    Args:
+        run: a :class:`PickAndPlace`.
+        model: a trained ``controller.ControllerNet`` (``controller.trained_controller(...).model``).
+        frames: frames rolled out from each start, a positive int.
+        lead: seconds before the walk's end for the ``"walking"`` start, positive.
+    Returns:
+        ``{"pelvis_height", "wrist_height"`` (the goal keyframe's, metres), ``"starts": {start: {"frame",
+        "distance"`` (the door wrist from the handle at the start, m), ``"closest": {variant: m}`` (the door
+        wrist's closest approach to the handle), ``"root_error": {variant: m}`` (the root's distance from the goal's
+        root after the last frame)``}}}``.
+    """
+    if not isinstance(run, PickAndPlace):
+        raise ValueError(f"run: expected a PickAndPlace (pick_and_place), got {type(run).__name__}")
+    if not isinstance(model, controller.ControllerNet):
+        raise ValueError(f"model: expected a controller.ControllerNet, got {type(model).__name__}")
+    if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
+        raise ValueError(f"frames: expected a positive int, got {frames!r}")
+    if isinstance(lead, bool) or not isinstance(lead, (int, float)) or not lead > 0:
+        raise ValueError(f"lead: expected a positive number of seconds, got {lead!r}")
+    side = SIDES.index(run.hands["door"])
+    motion = run.motion
+    g = run.phase("grasp handle")[0]
+    positions, rotations = controller.key_joint_transforms(motion)
+    window = (g + controller.WINDOW_OFFSETS).clamp(0, len(motion) - 1)
+    goal_phase = phase.clip_phase(model.phase_model, motion).state()[g]
+    goal = controller.Goal(positions[window][None].float(), rotations[window][None].float(), goal_phase[None].float(),
+                           torch.tensor([side]))
+    centre = goal.positions[0, controller.WINDOW // 2]  # (4, 3): root, hip, left wrist, right wrist
+    handle = centre[2 + side].numpy()
+    wrist = joint_index(f"{SIDES[side]}_wrist")
+    walk_end = run.phase("walk to cabinet")[1]
+    starts = {"standing": (run.phase("reach handle")[0], False),
+              "walking": (max(walk_end - int(round(lead * FPS)), 1), True)}
+    states = []
+    for frame, walking in starts.values():
+        state = controller.initial_state(model, [motion.slice(0, frame + 1)], frame=frame)
+        states.append(controller.toward_goal(state, goal) if walking else state)
+    state = controller.ControllerState(*(torch.cat(parts) for parts in zip(*states)))  # both starts in one batch
+    goals = controller.Goal(*(part.expand(len(states), *part.shape[1:]) for part in goal))
+    closest, root_error = {}, {}
+    for variant in controller.VARIANTS:
+        rolled = controller.rollout(model, state, goals, frames, variant)
+        closest[variant] = np.min(np.linalg.norm(rolled.wrist[:, :, side].numpy() - handle, axis=-1), axis=0)
+        root_error[variant] = np.linalg.norm(rolled.origin[-1, :, :2].numpy() - centre[0, :2].numpy(), axis=-1)
+    out = {"pelvis_height": float(centre[1, 2]), "wrist_height": float(handle[2]), "starts": {}}
+    for k, (name, (frame, _)) in enumerate(starts.items()):
+        out["starts"][name] = {"frame": int(frame),
+                               "distance": float(np.linalg.norm(motion.joints[frame, wrist].numpy() - handle)),
+                               "closest": {v: float(closest[v][k]) for v in controller.VARIANTS},
+                               "root_error": {v: float(root_error[v][k]) for v in controller.VARIANTS}}
+    return out
 
 
 def _forward2(heading: float) -> np.ndarray:
