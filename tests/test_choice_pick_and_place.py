@@ -154,11 +154,11 @@ def test_the_controller_at_the_cabinet_gets_the_demos_handle_keyframe_and_both_s
     assert abs(standing["distance"] - float(np.linalg.norm(run0.motion.joints[standing["frame"], door_wrist].numpy()
                                                            - handle))) < 1e-5
     # the standing start alone, rolled out with the Kalman goal phase, gives the batch's numbers
-    positions, rotations = controller.key_joint_transforms(run0.motion)
-    window = (g + controller.WINDOW_OFFSETS).clamp(0, len(run0.motion) - 1)
+    import dataclasses
+
     side = ("left", "right").index(run0.hands["door"])
-    goal = controller.Goal(positions[window][None].float(), rotations[window][None].float(),
-                           phase.clip_phase(model.phase_model, run0.motion).state()[g][None].float(), torch.tensor([side]))
+    goal = controller.clip_goal(model, [dataclasses.replace(run0.motion, meta={"anchor_frame": g,
+                                                                                "hand": run0.hands["door"]})])
     f = standing["frame"]
     alone = controller.rollout(model, controller.initial_state(model, [run0.motion.slice(0, f + 1)], frame=f), goal, 8,
                                "kalman")

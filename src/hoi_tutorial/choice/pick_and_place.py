@@ -93,7 +93,7 @@ from ..world.objects import make_object
 from ..world.scenes import Kitchen, make_kitchen
 from ..world.skeleton import joint_index
 from . import environment as env
-from . import controller, locomotion, navigation, phase, scheduler
+from . import controller, locomotion, navigation, scheduler
 from .environment import EnvironmentConfig, KeyPose, LibraryConfig
 from .navigation import NavigationConfig
 from .pick_and_place_checks import body_distances, body_points, evaluate, handle_at
@@ -614,11 +614,8 @@ def controller_at_cabinet(run: PickAndPlace, model, frames: int = 60, lead: floa
     side = SIDES.index(run.hands["door"])
     motion = run.motion
     g = run.phase("grasp handle")[0]
-    positions, rotations = controller.key_joint_transforms(motion)
-    window = (g + controller.WINDOW_OFFSETS).clamp(0, len(motion) - 1)
-    goal_phase = phase.clip_phase(model.phase_model, motion).state()[g]
-    goal = controller.Goal(positions[window][None].float(), rotations[window][None].float(), goal_phase[None].float(),
-                           torch.tensor([side]))
+    # the demo's grasp of the handle as a reach's keyframe (controller.clip_goal reads it from the clip's meta)
+    goal = controller.clip_goal(model, [dataclasses.replace(motion, meta={"anchor_frame": g, "hand": run.hands["door"]})])
     centre = goal.positions[0, controller.WINDOW // 2]  # (4, 3): root, hip, left wrist, right wrist
     handle = centre[2 + side].numpy()
     wrist = joint_index(f"{SIDES[side]}_wrist")
