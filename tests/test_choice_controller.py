@@ -125,8 +125,10 @@ def test_the_kalman_goal_phase_is_filter_step_by_hand(trained, start):
     s = state
     for t in range(4):
         fed = ctl.goal_phase_features(estimate)
-        assert torch.allclose(run.goal_phase[t], fed)
+        assert torch.equal(run.goal_phase[t], fed)
         s, out = ctl.controller_step(trained.model, s, goal, fed)
+        # the rollout checks its inputs once and steps unchecked: the same numbers as the checked step
+        assert torch.equal(run.wrist[t], out["wrist"]) and torch.equal(run.deviation[t], out["deviation"])
         centre = goal.positions[:, 6]
         active = kalman.matched_measurement_active(
             s.origin[:, :2].numpy(), centre[:, 0, :2].numpy(), out["wrist"][torch.arange(2), goal.hand].numpy(),
@@ -147,6 +149,10 @@ def test_clear_errors(trained, start):
         ctl.controller_step(trained.model, state, goal, torch.zeros(2, 5))
     with pytest.raises(ValueError, match="state.pose: expected shape"):
         ctl.controller_step(trained.model, state._replace(pose=state.pose[:, :10]), goal, torch.zeros(2, 12))
+    with pytest.raises(ValueError, match="state.history: expected shape"):
+        ctl.rollout(trained.model, state._replace(history=state.history[:, :5]), goal, 3, "kalman")
+    with pytest.raises(ValueError, match="goal.positions: expected shape"):
+        ctl.rollout(trained.model, state, goal._replace(positions=goal.positions[:1]), 3, "none")
     with pytest.raises(ValueError, match="x: expected shape"):
         trained.model(torch.zeros(2, 3))
     with pytest.raises(ValueError, match="phase_dropout"):

@@ -108,6 +108,29 @@ def test_filter_without_matched_goal_is_one_update_and_the_switch_is_per_charact
     assert np.trace(switched[1][1]) < np.trace(only_pred[1][1])  # a second measurement shrinks P
 
 
+def test_filter_step_is_the_public_predict_and_updates_in_turn():
+    # filter_step checks its inputs once and then runs the unchecked cores: the same numbers as
+    # predict, update with R_pred = c Q and, where switched on, update with R_match = Q
+    rng = np.random.default_rng(4)
+    x0 = np.column_stack([rng.uniform(0, 1, 6), rng.uniform(0.2, 0.8, 6), rng.uniform(0.5, 4, 6)]).reshape(2, 3, 3)
+    P0 = np.stack([random_covariance(rng) for _ in range(6)]).reshape(2, 3, 3, 3)
+    variance = rng.uniform(0.01, 0.5, (3, 3))
+    z_pred, z_match = x0 + rng.normal(0, 0.05, x0.shape), x0 + rng.normal(0, 0.05, x0.shape)
+    c, switch = rng.uniform(0.1, 3, (2, 1)), np.array([[True], [False]])
+    Q = K.process_noise(variance, CONFIG)
+    by_hand = K.predict(x0, P0, Q, CONFIG)
+    by_hand = K.update(*by_hand, z_pred, c[..., None, None] * Q, CONFIG)
+    by_hand = K.update(*by_hand, z_match, Q, CONFIG, active=switch)
+    state, covariance = K.filter_step(x0, P0, variance, z_pred, c, CONFIG, matched_goal=z_match, use_matched=switch)
+    np.testing.assert_array_equal(state, by_hand[0])
+    np.testing.assert_array_equal(covariance, by_hand[1])
+    assert not np.array_equal(state[1], K.filter_step(x0, P0, variance, z_pred, c, CONFIG, matched_goal=z_match)[0][1])
+    with pytest.raises(ValueError, match="broadcast"):
+        K.filter_step(x0, P0, variance, z_pred, c, CONFIG, matched_goal=z_match, use_matched=np.ones((3, 2), bool))
+    with pytest.raises(ValueError, match="predicted_goal: expected shape"):
+        K.filter_step(x0, P0, variance, z_pred[..., :2], c, CONFIG)
+
+
 # ----------------------------------------------------------------------------- the gain's limits
 
 
@@ -227,6 +250,15 @@ def test_deviation_at_hand_computed_cases():
     batched = K.bidirectional_deviation(np.stack([r, r]), np.stack([t, t]), np.stack([r, quarter_turn]),
                                         np.stack([moved, moved]), config)
     np.testing.assert_allclose(batched, [1.0, 1.0 + np.sqrt(2) / 2])
+
+
+def test_deviation_without_checks_gives_the_same_numbers():
+    rng = np.random.default_rng(5)
+    ego, inv = (Rotation.random(14, random_state=s).as_matrix().reshape(2, 7, 3, 3) for s in (3, 4))
+    t_ego, t_inv = rng.normal(0, 0.3, (2, 7, 3)), rng.normal(0, 0.3, (2, 7, 3))
+    checked = K.bidirectional_deviation(ego, t_ego, inv, t_inv, CONFIG)
+    np.testing.assert_array_equal(K.bidirectional_deviation(ego, t_ego, inv, t_inv, CONFIG, check=False), checked)
+    assert checked.shape == (2,) and np.all(checked > 0)
 
 
 def test_deviation_rotation_term_is_the_frobenius_norm_of_the_matrix_log():

@@ -197,7 +197,7 @@ def key_joint_transforms(motion: Motion) -> tuple[torch.Tensor, torch.Tensor]:
 def _in_frame(positions, rotations, origin, frame):
     """Positions (..., 3) and rotations (..., 3, 3) seen from frames ``(origin (..., 3), frame (..., 3, 3))``
     whose batch shape broadcasts against theirs: ``Rᵀ (p − o)`` and ``Rᵀ r``."""
-    local = torch.einsum("...ji,...j->...i", frame, positions - origin)
+    local = ((positions - origin)[..., None, :] @ frame)[..., 0, :]  # (pᵀ R)ᵀ = Rᵀ p: matmul, cheaper than einsum
     return local, frame.transpose(-1, -2) @ rotations
 
 
@@ -320,7 +320,7 @@ def blended_pose(previous: torch.Tensor, predicted: torch.Tensor, update: torch.
     n = NUM_JOINTS * 3
     turn = rotation_about_z(update[:, 2])  # the frame of t + 1 seen from t
     shift = torch.cat([update[:, :2], torch.zeros_like(update[:, :1])], dim=-1)
-    moved = torch.einsum("bji,bkj->bki", turn, previous[:, :n].reshape(-1, NUM_JOINTS, 3) - shift[:, None])
+    moved = (previous[:, :n].reshape(-1, NUM_JOINTS, 3) - shift[:, None]) @ turn  # Rᵀ p per joint
     carried = moved.flatten(1) + predicted[:, n:] / FPS
     return torch.cat([(1 - POSE_BLEND) * carried + POSE_BLEND * predicted[:, :n], predicted[:, n:]], dim=-1)
 
@@ -614,13 +614,15 @@ def toward_goal(state: ControllerState, goal: Goal, speed: float = 1.0) -> Contr
     return state._replace(future=torch.cat([position, forward], dim=-1))
 
 
+_FILTER_CONFIG = kalman.PhaseFilterConfig()
+
+
 def _deviation(ego: torch.Tensor, goal_centric: torch.Tensor) -> np.ndarray:
     """``c`` of Eq. 22 (``kalman.bidirectional_deviation``) per sample, (B, 7): the 6D rotations decoded in
     float64 so that they are orthonormal to its tolerance."""
-    ego_p, ego_r = _decode(ego.double())
-    inv_p, inv_r = _decode(goal_centric.double())
-    return kalman.bidirectional_deviation(ego_r.numpy(), ego_p.numpy(), inv_r.numpy(), inv_p.numpy(),
-                                          kalman.PhaseFilterConfig())
+    p, r = _decode(torch.stack([ego, goal_centric]).double())  # both in one decode
+    p, r = p.numpy(), r.numpy()
+    return kalman.bidirectional_deviation(r[0], p[0], r[1], p[1], _FILTER_CONFIG, check=False)  # orthonormal
 
 
 def _check_step_inputs(model, state, goal, goal_phase):
@@ -656,12 +658,17 @@ def controller_step(model: ControllerNet, state: ControllerState, goal: Goal, go
         ``goal`` (B, 13, 4, 9) the goal estimate, ``goal_phase_state`` (B, C, 3) its ``[S, A, F]``.
     """
     _check_step_inputs(model, state, goal, goal_phase)
+    return _step(model, state, goal, goal_phase, blend_radius)
+
+
+def _step(model, state, goal, goal_phase, blend_radius):
+    """:func:`controller_step` on checked inputs (a rollout checks them once: a step keeps their shapes)."""
     B = state.origin.shape[0]
     frame = rotation_about_z(state.heading)
     # inputs in the root frame of t
     past = state.history[:, :PAST:SAMPLE_STEP]  # frames t − 30, ..., t − 5
-    past_p = torch.einsum("bji,bsj->bsi", frame[:, :2, :2], past[..., :2] - state.origin[:, None, :2])
-    past_dir = torch.einsum("bji,bsj->bsi", frame[:, :2, :2], past[..., 2:])
+    past_p = (past[..., :2] - state.origin[:, None, :2]) @ frame[:, :2, :2]
+    past_dir = past[..., 2:] @ frame[:, :2, :2]
     trajectory = torch.cat([torch.cat([past_p, past_dir], -1), state.future], dim=1)
     goal_p, goal_r = _in_frame(goal.positions, goal.rotations, state.origin[:, None, None], frame[:, None, None])
     x = torch.cat([state.pose, trajectory.flatten(1), _encode(goal_p, goal_r).flatten(1), state.phase, goal_phase], -1)
@@ -671,7 +678,7 @@ def controller_step(model: ControllerNet, state: ControllerState, goal: Goal, go
     ego = out["ego"].reshape(future_shape)
     inv_p, inv_r = _decode(out["inv"].reshape(future_shape))
     centre_p, centre_r = goal_p[:, WINDOW // 2], goal_r[:, WINDOW // 2]  # G per key joint (B, 4, ...)
-    mapped_p = torch.einsum("bkij,bskj->bski", centre_r, inv_p) + centre_p[:, None]  # Eq. 14: G T^inv
+    mapped_p = (centre_r[:, None] @ inv_p[..., None])[..., 0] + centre_p[:, None]  # Eq. 14: G T^inv
     mapped_r = centre_r[:, None] @ inv_r
     goal_centric = _encode(mapped_p, mapped_r)
     deviation = _deviation(ego, goal_centric).mean(-1)
@@ -683,18 +690,17 @@ def controller_step(model: ControllerNet, state: ControllerState, goal: Goal, go
     blended = (1 - blend[:, None, None, None]) * ego + blend[:, None, None, None] * goal_centric
     # the root moves; the blended root trajectory becomes the next future
     update = out["root_update"]
-    origin = state.origin + torch.einsum("bij,bj->bi", frame[:, :, :2], update[:, :2])
+    origin = state.origin + (frame[:, :, :2] @ update[:, :2, None])[..., 0]
     heading = _wrapped(state.heading + update[:, 2])
     new_frame = rotation_about_z(heading)
     root_p, root_r = _decode(blended[:, :, 0])
-    world_p = torch.einsum("bij,bsj->bsi", frame, root_p) + state.origin[:, None]
+    world_p = root_p @ frame.transpose(-1, -2) + state.origin[:, None]
     next_p, next_r = _in_frame(world_p, frame[:, None] @ root_r, origin[:, None], new_frame[:, None])
     future = torch.cat([next_p[..., :2], next_r[..., :2, 1]], dim=-1)
     history = torch.cat([state.history[:, 1:], _ground(origin, heading)[:, None]], dim=1)
     next_state = ControllerState(origin, heading, blended_pose(state.pose, out["pose"], update), history, future,
                                  out["phase"])
-    world = torch.einsum("bij,bkj->bki", new_frame, next_state.pose[:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3)) \
-        + origin[:, None]
+    world = next_state.pose[:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3) @ new_frame.transpose(-1, -2) + origin[:, None]
     wrist = world[:, list(_WRISTS)]
     outputs = {"joints": world, "wrist": wrist, "ego": ego, "goal_centric": goal_centric, "blended": blended, "blend": blend,
                "deviation": torch.as_tensor(deviation, dtype=torch.float32),
@@ -740,27 +746,28 @@ def rollout(model: ControllerNet, state: ControllerState, goal: Goal, frames: in
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
         raise ValueError(f"frames: expected a positive int, got {frames!r}")
     B = state.origin.shape[0]
+    _check_step_inputs(model, state, goal, torch.zeros(B, 3 * model.channels))
     estimate = goal.phase.double().numpy()
+    matched = estimate.copy()
     covariance = np.zeros(estimate.shape + (3,))
     variance = model.phase_variance.double().numpy()
+    centre = goal.positions[:, WINDOW // 2]
+    root_goal, hand_goal = centre[:, 0, :2].numpy(), centre[torch.arange(B), 2 + goal.hand].numpy()
     records = []
     for _ in range(frames):
         fed = torch.zeros(B, 3 * model.channels) if variant == "none" else goal_phase_features(
             goal.phase if variant == "matched" else estimate)
-        state, out = controller_step(model, state, goal, fed, blend_radius)
+        state, out = _step(model, state, goal, fed, blend_radius)
         predicted = out["goal_phase_state"].double().numpy()
         if variant == "predicted":
             estimate = predicted
         elif variant == "kalman":
-            centre = goal.positions[:, WINDOW // 2]
             hand = out["wrist"][torch.arange(B), goal.hand]
-            active = kalman.matched_measurement_active(state.origin[:, :2].numpy(), centre[:, 0, :2].numpy(),
-                                                       hand.numpy(), centre[torch.arange(B), 2 + goal.hand].numpy(),
+            active = kalman.matched_measurement_active(state.origin[:, :2].numpy(), root_goal, hand.numpy(), hand_goal,
                                                        filter_config)
             estimate, covariance = kalman.filter_step(estimate, covariance, variance, predicted,
                                                       out["deviation"].double().numpy()[:, None], filter_config,
-                                                      matched_goal=goal.phase.double().numpy(),
-                                                      use_matched=active[:, None])
+                                                      matched_goal=matched, use_matched=active[:, None])
         records.append((out["joints"], out["wrist"], state.origin, fed, out["goal_phase_state"], out["deviation"]))
     joints, wrist, origin, fed, predicted, deviation = (torch.stack(v) for v in zip(*records))
     return Rollout(joints, wrist, origin, fed, predicted, deviation, state)

@@ -212,7 +212,11 @@ def constrain(state, config: PhaseFilterConfig) -> np.ndarray:
     Args:
         state: (..., 3) ``[S, A, F]``.
     """
-    state = np.array(_array(state, (..., 3), "state"))
+    return _constrained(np.array(_array(state, (..., 3), "state")), config)
+
+
+def _constrained(state: np.ndarray, config: PhaseFilterConfig) -> np.ndarray:
+    """:func:`constrain` on a fresh float64 array it may change in place (no input checks)."""
     state[..., PHASE] = wrap_phase(state[..., PHASE])
     state[..., AMPLITUDE] = np.clip(state[..., AMPLITUDE], 0.0, config.amplitude_max)
     state[..., FREQUENCY] = np.clip(state[..., FREQUENCY], 0.0, config.frequency_max)
@@ -295,8 +299,13 @@ def predict(goal_phase, covariance, noise, config: PhaseFilterConfig) -> tuple[n
     covariance = _check_covariance(covariance, "covariance")
     noise = _check_covariance(noise, "noise")
     batch = _batch_shape(goal_phase=goal_phase.shape[:-1], covariance=covariance.shape[:-2], noise=noise.shape[:-2])
+    return _predicted(goal_phase, covariance, noise, config, batch)
+
+
+def _predicted(goal_phase, covariance, noise, config, batch) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`predict` on checked float64 arrays, broadcast to ``batch``."""
     F = transition_matrix(config.dt)
-    return _broadcast(constrain(goal_phase @ F.T, config), F @ covariance @ F.T + noise, batch)
+    return _broadcast(_constrained(goal_phase @ F.T, config), F @ covariance @ F.T + noise, batch)
 
 
 def update(goal_phase, covariance, measurement, noise, config: PhaseFilterConfig,
@@ -320,12 +329,17 @@ def update(goal_phase, covariance, measurement, noise, config: PhaseFilterConfig
     batch = _batch_shape(goal_phase=goal_phase.shape[:-1], covariance=covariance.shape[:-2],
                          measurement=measurement.shape[:-1], noise=noise.shape[:-2],
                          **({} if active is None else {"active": np.shape(active)}))
+    return _updated(goal_phase, covariance, measurement, noise, config, active, batch)
+
+
+def _updated(goal_phase, covariance, measurement, noise, config, active, batch) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`update` on checked float64 arrays, broadcast to ``batch``."""
     innovation = measurement - goal_phase
     innovation[..., PHASE] = phase_difference(measurement[..., PHASE], goal_phase[..., PHASE])
     S = covariance + noise
     # K = P S⁻¹, solved as Sᵀ Kᵀ = Pᵀ.
     gain = np.swapaxes(np.linalg.solve(np.swapaxes(S, -1, -2), np.swapaxes(covariance, -1, -2)), -1, -2)
-    updated = constrain(goal_phase + np.einsum("...ij,...j->...i", gain, innovation), config)
+    updated = _constrained(goal_phase + np.einsum("...ij,...j->...i", gain, innovation), config)
     updated_covariance = covariance - gain @ covariance
     if active is not None:
         active = np.asarray(active, dtype=bool)
@@ -351,7 +365,7 @@ def _check_rotations(rotations, name):
 
 
 def bidirectional_deviation(ego_rotations, ego_positions, goal_rotations, goal_positions,
-                            config: PhaseFilterConfig) -> np.ndarray:
+                            config: PhaseFilterConfig, check: bool = True) -> np.ndarray:
     """``c = Dev(T^inv, T^ego)`` of Eq. 22, the confidence scale of ``R_pred = c Q`` (Eq. 21):
     ``Σ_j α ‖log(r_jᵉᵍᵒᵀ r_jⁱⁿᵛ)‖_F + β ‖t_jᵉᵍᵒ − t_jⁱⁿᵛ‖``, where ``‖log r‖_F = √2 θ``
     for a rotation by ``θ``.
@@ -362,9 +376,22 @@ def bidirectional_deviation(ego_rotations, ego_positions, goal_rotations, goal_p
         goal_rotations: (..., J, 3, 3) the goal-centric predictions mapped into the same frame by
             Eq. 14 (``G^{keyJ} T^{inv}``): ``r^inv``.
         goal_positions: (..., J, 3) their positions ``t^inv``, metres.
+        check: False skips the input checks (shapes, finite values, orthonormal rotations) for float64 arrays
+            that hold by construction, as in ``controller``'s inner loop.
     Returns:
         (...) ``c ≥ 0`` (dimensionless), summed over the ``J`` key joints.
     """
+    if check:
+        ego_rotations, ego_positions, goal_rotations, goal_positions = _checked_deviation_inputs(
+            ego_rotations, ego_positions, goal_rotations, goal_positions)
+    relative = np.swapaxes(ego_rotations, -1, -2) @ goal_rotations
+    rotation_cost = np.sqrt(2.0) * _rotation_angle(relative)
+    position_cost = np.linalg.norm(ego_positions - goal_positions, axis=-1)
+    return (config.rotation_weight * rotation_cost + config.position_weight * position_cost).sum(axis=-1)
+
+
+def _checked_deviation_inputs(ego_rotations, ego_positions, goal_rotations, goal_positions):
+    """The four inputs of :func:`bidirectional_deviation` as float64 arrays, checked."""
     ego_rotations = _array(ego_rotations, (..., None, 3, 3), "ego_rotations")
     goal_rotations = _array(goal_rotations, (..., None, 3, 3), "goal_rotations")
     ego_positions = _array(ego_positions, (..., None, 3), "ego_positions")
@@ -378,10 +405,7 @@ def bidirectional_deviation(ego_rotations, ego_positions, goal_rotations, goal_p
                  ego_positions=ego_positions.shape[:-1], goal_positions=goal_positions.shape[:-1])
     _check_rotations(ego_rotations, "ego_rotations")
     _check_rotations(goal_rotations, "goal_rotations")
-    relative = np.swapaxes(ego_rotations, -1, -2) @ goal_rotations
-    rotation_cost = np.sqrt(2.0) * _rotation_angle(relative)
-    position_cost = np.linalg.norm(ego_positions - goal_positions, axis=-1)
-    return (config.rotation_weight * rotation_cost + config.position_weight * position_cost).sum(axis=-1)
+    return ego_rotations, ego_positions, goal_rotations, goal_positions
 
 
 def matched_measurement_active(root, root_goal, hand, hand_goal, config: PhaseFilterConfig) -> np.ndarray:
@@ -424,13 +448,27 @@ def filter_step(goal_phase, covariance, variance, predicted_goal, deviation, con
     """
     if use_matched is not None and matched_goal is None:
         raise ValueError("use_matched: expected matched_goal (..., 3) with it, got matched_goal=None")
+    # each input checked once; then Eqs. 18 and 20 on the checked arrays
+    goal_phase = _array(goal_phase, (..., 3), "goal_phase")
+    covariance = _check_covariance(covariance, "covariance")
+    predicted_goal = _array(predicted_goal, (..., 3), "predicted_goal")
     deviation = _array(deviation, (...,), "deviation")
     _nonnegative(deviation, "deviation")
     noise = process_noise(variance, config)
-    goal_phase, covariance = predict(goal_phase, covariance, noise, config)
-    goal_phase, covariance = update(goal_phase, covariance, predicted_goal, deviation[..., None, None] * noise, config)
+    shapes = dict(goal_phase=goal_phase.shape[:-1], covariance=covariance.shape[:-2], noise=noise.shape[:-2],
+                  predicted_goal=predicted_goal.shape[:-1], deviation=deviation.shape)
     if matched_goal is not None:
-        goal_phase, covariance = update(goal_phase, covariance, matched_goal, noise, config, active=use_matched)
+        matched_goal = _array(matched_goal, (..., 3), "matched_goal")
+        shapes["matched_goal"] = matched_goal.shape[:-1]
+        if use_matched is not None:
+            use_matched = np.asarray(use_matched, dtype=bool)
+            shapes["use_matched"] = use_matched.shape
+    batch = _batch_shape(**shapes)
+    goal_phase, covariance = _predicted(goal_phase, covariance, noise, config, batch)
+    goal_phase, covariance = _updated(goal_phase, covariance, predicted_goal, deviation[..., None, None] * noise,
+                                      config, None, batch)
+    if matched_goal is not None:
+        goal_phase, covariance = _updated(goal_phase, covariance, matched_goal, noise, config, use_matched, batch)
     return goal_phase, covariance
 
 
