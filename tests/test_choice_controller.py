@@ -165,6 +165,23 @@ def test_clear_errors(trained, start):
         ctl.clip_goal(trained.model, mocap.generate_dataset(1, seed=0, kinds=("walk",)))
 
 
+def test_the_data_holds_the_clips_of_each_kind(trained):
+    pae = trained.model.phase_model
+    config = ctl.controller_config("toy", clips=1, kinds=("reach_grasp", "open_door"))
+    data = ctl.controller_data(config, pae)
+    reach, door = mocap.generate_dataset(1, seed=0, kinds=("reach_grasp", "open_door"))
+    assert door.meta["kind"] == "open_door" and "anchor_frame" in door.meta
+    x_reach, y_reach, _ = ctl.clip_features(reach, pae)
+    x_door, y_door, _ = ctl.clip_features(door, pae)
+    assert torch.equal(data.clip, torch.cat([torch.zeros(len(x_reach)), torch.ones(len(x_door))]).long())
+    assert torch.equal(data.x, torch.cat([x_reach, x_door])) and torch.equal(data.y, torch.cat([y_reach, y_door]))
+    only_reach = ctl.controller_data(ctl.controller_config("toy", clips=1), pae)
+    assert torch.equal(only_reach.x, x_reach)
+    for bad in (("walk",), "reach_grasp", ("open_door", "open_door"), ()):
+        with pytest.raises(ValueError, match="kinds: expected a tuple of distinct names"):
+            ctl.controller_config("toy", kinds=bad)
+
+
 def test_next_future_agrees_with_the_data(trained, clips):
     """The unrolled training's future root trajectory, made from the targets of frame t (ego root samples and the
     root update), is the data's input future of frame t + 1."""

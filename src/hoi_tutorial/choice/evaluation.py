@@ -483,7 +483,8 @@ def table4_runs(controller_config, *, clips: int = 12, after: int = 15, seed: in
         trained = controller.trained_controller(controller_config)
         model = trained.model
         test = mocap.generate_dataset(clips, seed=10_000 + int(seed), kinds=("reach_grasp",))
-        train = mocap.generate_dataset(controller_config.clips, seed=controller_config.seed, kinds=("reach_grasp",))
+        train = mocap.generate_dataset(controller_config.clips, seed=controller_config.seed,
+                                       kinds=controller_config.kinds)  # the controller's training clips
         anchors = np.array([int(c.meta["anchor_frame"]) for c in test])
         ends = np.minimum(anchors + after, [len(c) - 1 for c in test])
         hands = np.array([int(c.meta["hand"] == "right") for c in test])
