@@ -157,12 +157,34 @@ def test_clear_errors(trained, start):
         trained.model(torch.zeros(2, 3))
     with pytest.raises(ValueError, match="phase_dropout"):
         ctl.controller_config("toy", phase_dropout=1.5)
+    with pytest.raises(ValueError, match="key_noise: expected a standard deviation"):
+        ctl.controller_config("toy", key_noise=-0.1)
+    with pytest.raises(ValueError, match="state.keys: expected shape"):
+        ctl.rollout(trained.model, state._replace(keys=state.keys[:, :3]), goal, 3, "kalman")
     with pytest.raises(ValueError, match=r"unroll_steps: expected an int in \[0, steps=100\]"):
         ctl.controller_config("toy", steps=100, unroll_steps=200)
     with pytest.raises(ValueError, match="speed: expected a positive"):
         ctl.toward_goal(state, goal, speed=0.0)
     with pytest.raises(ValueError, match="clips: expected reach-and-grasp clips"):
         ctl.clip_goal(trained.model, mocap.generate_dataset(1, seed=0, kinds=("walk",)))
+
+
+def test_the_key_joint_trajectories_fed_back_are_the_next_frames_input(trained, clips, start):
+    # the hip's and wrists' trajectory input of t + 1 is the ego target of t carried into the root frame of t + 1
+    x, y, _ = ctl.clip_features(clips[0], trained.model.phase_model)
+    xl, yl = trained.model.x_layout, trained.model.y_layout
+    carried = ctl.next_key_trajectories(y[:-1, yl["ego"]], y[:-1, yl["root_update"]])
+    torch.testing.assert_close(carried.flatten(1), x[1:, xl["keys"]], atol=2e-6, rtol=0)
+    assert x[1:, xl["keys"]].std(0).max() > 0.1  # they move
+    # at run time the blend of the step becomes the next state's input
+    state, goal = start
+    state = state._replace(future=state.future + 0.05)
+    nxt, out = ctl.controller_step(trained.model, state, goal, ctl.goal_phase_features(goal.phase))
+    frame = rotation_about_z(state.heading)
+    update_p = torch.einsum("bji,bj->bi", frame, nxt.origin - state.origin)[:, :2]
+    update = torch.cat([update_p, (nxt.heading - state.heading)[:, None]], dim=-1)
+    torch.testing.assert_close(nxt.keys, ctl.next_key_trajectories(out["blended"], update), atol=1e-5, rtol=0)
+    assert not torch.allclose(nxt.keys, state.keys, atol=1e-3)
 
 
 def test_the_data_holds_the_clips_of_each_kind(trained):

@@ -11,7 +11,10 @@ root / hip / left wrist / right wrist, ``w = 13`` samples over 2 s):
    velocities), the 2D root trajectory (13 samples over ``[t − 1 s, t + 1 s]``: position and forward
    direction), the goals ``G_t^keyJ`` (the four key joints' positions and 6D rotations at 13 samples
    centred on ``g``), the current phase ``A·(sin 2πS, cos 2πS), F`` and the goal phase features of
-   Eq. 13, ``P̃_g = (A_g·sin 2πS_g + ε, A_g·cos 2πS_g + ε, F_g + ε)``, ``ε ~ N(0, 0.1)`` in training.
+   Eq. 13, ``P̃_g = (A_g·sin 2πS_g + ε, A_g·cos 2πS_g + ε, F_g + ε)``, ``ε ~ N(0, 0.1)`` in training, and
+   the hip's and wrists' 6D trajectories over the next second (7 samples ``t + 5k``; §5.1: "in addition to
+   the 2D root trajectories on the ground, the 6D transformations of the hip and left/right wrists are also
+   given"): the recorded ones in training, noised by ``key_noise``; at run time the previous step's blend.
 3. **Network** (Fig. 4): a gating network on the phase features (current and goal ``A·sin, A·cos``)
    blends the experts of an MoE main network (``nn.moe.MoEMLP``).
 4. **Outputs** ``Y_{t+1}``: the next pose (in the next root frame) with the root's update, the next
@@ -19,8 +22,10 @@ root / hip / left wrist / right wrist, ``w = 13`` samples over 2 s):
    the goal-centric one ``T^inv_{t+1}`` (each key joint in its own goal frame ``G``), and the goal
    estimate ``Ĝ`` (13-sample window at ``g``) with its phase ``P̂_g``.
 5. **Run time** (:func:`controller_step`): ``G T^inv`` (Eq. 14) is blended with ``T^ego`` with a weight
-   that grows as the working wrist nears its goal; the blended root trajectory is the next step's future
-   root trajectory. ``c = Dev(G T^inv, T^ego)`` (Eq. 22) is returned for the Kalman filter.
+   that grows as the working wrist nears its goal; the blended trajectories are the next step's inputs (the
+   root's as its future root trajectory, the hip's and wrists' as theirs: Fig. 4, "our bi-directional control
+   blends the key-joint transformation prediction", fed back as NSM feeds back its control signals).
+   ``c = Dev(G T^inv, T^ego)`` (Eq. 22) is returned for the Kalman filter.
 6. **Goal phase sources** (:func:`rollout`, Table 4): ``"none"`` (zeros), ``"matched"`` (the matched
    clip's phase at its keyframe, held), ``"predicted"`` (the network's own ``P̂_g`` fed back), ``"kalman"``
    (``kalman.filter_step`` on the network's ``P̂_g`` with ``R_pred = c Q`` and the matched phase with
@@ -52,13 +57,13 @@ Choices the paper does not state, ours:
   (:func:`toward_goal`; a standing start is a fixed point the toy controller may not leave).
 
 Measured at toy (one CPU thread): 48 clips, about 8 400 frames, 3000 steps (the last 600 unrolled over 6 frames)
-in about a minute. On 12 unseen reaches the working wrist comes within a median 0.37 / 0.40 / 0.14 m of its grasp
-with the Kalman goal phase and seeds 0 / 1 / 2 (Table 4's runs, ``evaluation.table4_runs``); a few characters stop
-short or walk past their goal. Trained on 16 clips of each of ``CLIP_KINDS`` instead (about as many frames), those
-medians were 0.30 / 0.23 / 0.14 m, and the door wrist of ``pick_and_place.controller_at_cabinet`` came within
-0.46 / 0.31 / 0.47 m of the demo's handle against 0.59 / 0.44 / 0.32 m (standing start, closest of the four
-sources): better on two seeds of three, still tens of centimetres short, so the toy preset keeps reach-and-grasp
-clips only.
+in about a minute. On 12 unseen reaches the working wrist comes within a median 0.13 / 0.31 / 0.38 m of its grasp
+with the Kalman goal phase and seeds 0 / 1 / 2 (Table 4's runs, ``evaluation.table4_runs``). Before the hip's and
+wrists' trajectories were inputs, those medians were 0.37 / 0.40 / 0.14 m, and with seed 2 some characters blew up
+(unsmoothness 3 346 cm/s², against 154 now). Trained then on 16 clips of each of ``CLIP_KINDS`` instead (about as
+many frames), the medians were 0.30 / 0.23 / 0.14 m and the door wrist of ``pick_and_place.controller_at_cabinet``
+came within 0.46 / 0.31 / 0.47 m of the demo's handle against 0.59 / 0.44 / 0.32 m: better on two seeds of three,
+still tens of centimetres short, so the toy preset keeps reach-and-grasp clips only.
 
 Scaling (paper → toy): 8 PAE channels → 4 (``phase``); gating 3 × 128 → 2 × 64 hidden + output, main
 network 3 × 512 → 3 × 128; experts (not stated in CHOICE; DeepPhase 8) → 4; 70 % of 150 sequences for
@@ -96,7 +101,7 @@ __all__ = [
     "key_joint_transforms", "goal_phase_features", "phase_state",
     "ControllerData", "clip_features", "controller_data", "ControllerNet", "build_controller", "train_controller",
     "trained_controller", "ControllerState", "Goal", "initial_state", "clip_goal", "toward_goal", "POSE_BLEND",
-    "blended_pose", "controller_step",
+    "blended_pose", "next_key_trajectories", "controller_step",
     "Rollout", "rollout",
 ]
 
@@ -133,6 +138,9 @@ class ControllerConfig:
         steps, batch_size, lr, lr_schedule, grad_clip, optimizer: training (CHOICE: 150 epochs, 8 h).
         phase_noise: standard deviation of Eq. 13's noise (CHOICE: 0.1).
         phase_dropout: probability that a training sample's goal phase is zeroed (ours; the ``"none"`` variant).
+        key_noise: standard deviation of the noise on the key-joint trajectory input in training, metres and 6D
+            units (ours, as Eq. 13 noises the goal phase: without it the network leans on the recorded future and
+            its own fed-back trajectories drive it off).
         unroll, unroll_steps: the last ``unroll_steps`` of the ``steps`` run the network ``unroll`` frames on its
             own predicted pose and phase (ours; see :func:`train_controller`).
         blend_radius: metres; the ego/goal-centric blend weight reaches 1 at the goal (ours).
@@ -153,6 +161,7 @@ class ControllerConfig:
     optimizer: str = "adam"
     phase_noise: float = 0.1
     phase_dropout: float = 0.2
+    key_noise: float = 0.1
     unroll: int = 6
     unroll_steps: int = 600
     blend_radius: float = 1.0
@@ -168,8 +177,9 @@ class ControllerConfig:
         for name in ("lr", "blend_radius"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name}: expected a positive number, got {getattr(self, name)!r}")
-        if not self.phase_noise >= 0:
-            raise ValueError(f"phase_noise: expected a standard deviation >= 0, got {self.phase_noise!r}")
+        for name in ("phase_noise", "key_noise"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name}: expected a standard deviation >= 0, got {getattr(self, name)!r}")
         if not 0 <= self.phase_dropout < 1:
             raise ValueError(f"phase_dropout: expected a probability in [0, 1), got {self.phase_dropout!r}")
         if self.phase_steps is not None:
@@ -249,7 +259,8 @@ def _parts(channels: int):
     """The input and output layouts (``world.features.feature_layout``)."""
     future = (len(FUTURE_OFFSETS), len(KEY_JOINTS), TRANSFORM)
     x_parts = (("pose", 2 * NUM_JOINTS * 3), ("trajectory", (WINDOW, 4)),
-               ("goal", (WINDOW, len(KEY_JOINTS), TRANSFORM)), ("phase", 3 * channels), ("goal_phase", 3 * channels))
+               ("goal", (WINDOW, len(KEY_JOINTS), TRANSFORM)), ("phase", 3 * channels), ("goal_phase", 3 * channels),
+               ("keys", (len(FUTURE_OFFSETS), len(KEY_JOINTS) - 1, TRANSFORM)))
     y_parts = (("pose", 2 * NUM_JOINTS * 3), ("root_update", 3), ("phase", 3 * channels), ("ego", future),
                ("inv", future), ("goal", (WINDOW, len(KEY_JOINTS), TRANSFORM)), ("goal_phase", 3 * channels))
     return feature_layout(x_parts), feature_layout(y_parts)
@@ -309,7 +320,7 @@ def clip_features(clip: Motion, pae: PhaseAutoencoder) -> tuple[torch.Tensor, to
     trajectory = torch.cat([traj_p[..., :2], traj_r[..., :2, 1]], dim=-1)  # position, forward (+Y)
     x = torch.cat([_pose(joints[t], clip.joint_velocities()[t], o, f), trajectory.flatten(1),
                    window(at(goal_frame[:, None] + WINDOW_OFFSETS), o, f).flatten(1), features[t],
-                   features[goal_frame]], dim=-1)
+                   features[goal_frame], window(at(t[:, None] + FUTURE_OFFSETS), o, f)[:, :, 1:].flatten(1)], dim=-1)
 
     n = t + 1
     update_p, _ = _in_frame(origin[n], frame[n], o, f)
@@ -348,6 +359,17 @@ def _next_future(ego: torch.Tensor, update: torch.Tensor) -> torch.Tensor:
     position = torch.einsum("bji,bsj->bsi", turn, root_p[..., :2] - update[:, None, :2])
     forward = torch.einsum("bji,bsj->bsi", turn, root_r[..., :2, 1])
     return torch.cat([position, forward], dim=-1)
+
+
+def next_key_trajectories(ego: torch.Tensor, update: torch.Tensor) -> torch.Tensor:
+    """(B, 7, 3, 9) the hip's and wrists' trajectory input of ``t + 1`` (root frame of ``t + 1``: position and 6D
+    rotation at ``t + 1 + 5k``) from the predicted or blended key-joint samples ``ego`` (B, 7·4·9 or (B, 7, 4, 9),
+    root frame of ``t``) and the root update ``(dx, dy, dyaw)`` (B, 3)."""
+    B = ego.shape[0]
+    p, r = _decode(ego.reshape(B, len(FUTURE_OFFSETS), len(KEY_JOINTS), TRANSFORM)[:, :, 1:])
+    turn = rotation_about_z(update[:, 2])  # (B, 3, 3): the frame of t + 1 seen from t
+    shift = torch.cat([update[:, :2], torch.zeros_like(update[:, :1])], dim=-1)
+    return _encode(*_in_frame(p, r, shift[:, None, None], turn[:, None, None]))
 
 
 def _wrapped(angle: torch.Tensor) -> torch.Tensor:
@@ -421,12 +443,15 @@ def build_controller(config: ControllerConfig, pae: PhaseAutoencoder) -> Control
 
 def _noised_goal_phase(x, layout, config: ControllerConfig, generator) -> torch.Tensor:
     """Eq. 13: ``N(0, phase_noise)`` on every goal phase feature, and the whole goal phase zeroed with
-    probability ``phase_dropout`` (ours). Returns a new ``x``."""
+    probability ``phase_dropout`` (ours); ``N(0, key_noise)`` on the key-joint trajectories (ours). Returns a
+    new ``x``."""
     x = x.clone()
     part = layout["goal_phase"]
     noise = torch.randn(x.shape[0], part.stop - part.start, generator=generator) * config.phase_noise
     keep = (torch.rand(x.shape[0], 1, generator=generator) >= config.phase_dropout).float()
     x[:, part] = (x[:, part] + noise) * keep
+    keys = layout["keys"]
+    x[:, keys] = x[:, keys] + config.key_noise * torch.randn(x.shape[0], keys.stop - keys.start, generator=generator)
     return x
 
 
@@ -437,7 +462,8 @@ def train_controller(data: ControllerData, config: ControllerConfig, pae: PhaseA
 
     The first ``steps − unroll_steps`` batches are teacher-forced (single frames). The last ``unroll_steps``
     draw ``unroll`` consecutive frames of one clip and run the network on its own output: frame ``k + 1``'s
-    pose, phase and future root trajectory are the network's frame-``k`` predictions (the past root trajectory,
+    pose, phase, future root trajectory and key-joint trajectories are the network's frame-``k`` predictions
+    (:func:`next_key_trajectories`; the past root trajectory,
     goals and goal phase stay the data's), the loss averaged over the frames and back-propagated through them
     (ours: CHOICE trains for 150 epochs and does not say how; a teacher-forced toy controller wanders off on
     unseen clips, the autoregressive drift that scheduled sampling addresses, e.g. MVAE, Ling et al. 2020).
@@ -460,6 +486,8 @@ def train_controller(data: ControllerData, config: ControllerConfig, pae: PhaseA
         raise ValueError(f"data: no clip has the {U} consecutive frames that unroll={U} needs")
     fed = [(model.x_layout[name], model.y_layout[name]) for name in ("pose", "phase")]
     trajectory, ego, update = model.x_layout["trajectory"], model.y_layout["ego"], model.y_layout["root_update"]
+    keys = model.x_layout["keys"]
+    assert keys.stop == model.in_size  # the key-joint trajectories come last
     past = 4 * PAST // SAMPLE_STEP  # the past samples' numbers in the trajectory
     assert fed[0][0].start == 0 and fed[0][0].stop <= trajectory.start and trajectory.stop <= fed[1][0].start
 
@@ -484,7 +512,8 @@ def train_controller(data: ControllerData, config: ControllerConfig, pae: PhaseA
                 x = torch.cat([y[:, fed[0][1]],
                                data[:, fed[0][0].stop:trajectory.start + past],
                                _next_future(y[:, ego], y[:, update]).flatten(1), data[:, trajectory.stop:fed[1][0].start],
-                               y[:, fed[1][1]], data[:, fed[1][0].stop:]], dim=-1)
+                               y[:, fed[1][1]], data[:, fed[1][0].stop:keys.start],
+                               next_key_trajectories(y[:, ego], y[:, update]).flatten(1)], dim=-1)
         return loss / yn.shape[1]
 
     result = train(model, sample_batch, loss_fn, trainer_config(config, device=device, progress=progress))
@@ -530,6 +559,8 @@ class ControllerState(NamedTuple):
             ``PAST + 1`` frames, the current last.
         future: (B, 7, 4) the root trajectory ``t + 5k`` (k = 0..6) in the root frame: position, forward.
         phase: (B, 3C) the current phase features ``(A sin, A cos, F)``.
+        keys: (B, 7, 3, 9) the hip's and wrists' trajectory ``t + 5k`` (k = 0..6) in the root frame: position
+            and 6D rotation (the previous step's ego/goal-centric blend).
     """
 
     origin: torch.Tensor
@@ -538,6 +569,7 @@ class ControllerState(NamedTuple):
     history: torch.Tensor
     future: torch.Tensor
     phase: torch.Tensor
+    keys: torch.Tensor
 
 
 class Goal(NamedTuple):
@@ -564,7 +596,7 @@ def _ground(origin, heading):
 @torch.no_grad()
 def initial_state(model: ControllerNet, clips, frame: int = 0) -> ControllerState:
     """The state of each clip at ``frame`` (its pose, root history and PAE phase); the future root
-    trajectory stands still (ours: the data's future is not known at run time)."""
+    trajectory and the key joints' trajectories stand still (ours: the data's future is not known at run time)."""
     clips = list(clips)
     if not clips or not all(isinstance(c, Motion) for c in clips):
         raise ValueError("clips: expected a non-empty sequence of world.motion.Motion")
@@ -579,12 +611,14 @@ def initial_state(model: ControllerNet, clips, frame: int = 0) -> ControllerStat
         past = (torch.arange(-PAST, 1) + frame).clamp(0, len(clip) - 1)
         params = phase.clip_phase(model.phase_model, clip)
         state = params.state()[frame]
+        key_p, key_r = key_joint_transforms(clip)
+        keys = _encode(*_in_frame(key_p[frame, 1:], key_r[frame, 1:], origin[frame], f[frame]))  # (3, 9)
         rows.append((origin[frame], heading[frame], pose, _ground(origin[past], heading[past]),
-                     goal_phase_features(state)))
-    origin, heading, pose, history, features = (torch.stack(v).float() for v in zip(*rows))
+                     goal_phase_features(state), keys[None].expand(len(FUTURE_OFFSETS), -1, -1)))
+    origin, heading, pose, history, features, keys = (torch.stack(v).float() for v in zip(*rows))
     future = torch.zeros(len(clips), len(FUTURE_OFFSETS), 4)
     future[..., 3] = 1.0
-    return ControllerState(origin, heading, pose, history, future, features)
+    return ControllerState(origin, heading, pose, history, future, features, keys)
 
 
 @torch.no_grad()
@@ -647,6 +681,7 @@ def _check_step_inputs(model, state, goal, goal_phase):
                                ("state.history", state.history, (B, PAST + 1, 4)),
                                ("state.future", state.future, (B, len(FUTURE_OFFSETS), 4)),
                                ("state.phase", state.phase, (B, 3 * C)),
+                               ("state.keys", state.keys, (B, len(FUTURE_OFFSETS), len(KEY_JOINTS) - 1, TRANSFORM)),
                                ("goal.positions", goal.positions, (B, WINDOW, len(KEY_JOINTS), 3)),
                                ("goal.rotations", goal.rotations, (B, WINDOW, len(KEY_JOINTS), 3, 3)),
                                ("goal.phase", goal.phase, (B, C, 3)), ("goal.hand", goal.hand, (B,)),
@@ -685,7 +720,8 @@ def _step(model, state, goal, goal_phase, blend_radius):
     past_dir = past[..., 2:] @ frame[:, :2, :2]
     trajectory = torch.cat([torch.cat([past_p, past_dir], -1), state.future], dim=1)
     goal_p, goal_r = _in_frame(goal.positions, goal.rotations, state.origin[:, None, None], frame[:, None, None])
-    x = torch.cat([state.pose, trajectory.flatten(1), _encode(goal_p, goal_r).flatten(1), state.phase, goal_phase], -1)
+    x = torch.cat([state.pose, trajectory.flatten(1), _encode(goal_p, goal_r).flatten(1), state.phase, goal_phase,
+                   state.keys.flatten(1)], -1)
     y = model(x)
     out = {name: y[:, part] for name, part in model.y_layout.items()}
     future_shape = (B, len(FUTURE_OFFSETS), len(KEY_JOINTS), TRANSFORM)
@@ -713,7 +749,7 @@ def _step(model, state, goal, goal_phase, blend_radius):
     future = torch.cat([next_p[..., :2], next_r[..., :2, 1]], dim=-1)
     history = torch.cat([state.history[:, 1:], _ground(origin, heading)[:, None]], dim=1)
     next_state = ControllerState(origin, heading, blended_pose(state.pose, out["pose"], update), history, future,
-                                 out["phase"])
+                                 out["phase"], next_key_trajectories(blended, update))
     world = next_state.pose[:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3) @ new_frame.transpose(-1, -2) + origin[:, None]
     wrist = world[:, list(_WRISTS)]
     outputs = {"joints": world, "wrist": wrist, "ego": ego, "goal_centric": goal_centric, "blended": blended, "blend": blend,
