@@ -57,7 +57,7 @@ Choices the paper does not state, ours:
   (:func:`toward_goal`; a standing start is a fixed point the toy controller may not leave).
 
 Measured at toy (one CPU thread): 48 clips, about 8 400 frames, 3000 steps (the last 600 unrolled over 6 frames)
-in about a minute. On 12 unseen reaches the working wrist comes within a median 0.13 / 0.31 / 0.38 m of its grasp
+in about 70 s. On 12 unseen reaches the working wrist comes within a median 0.13 / 0.31 / 0.38 m of its grasp
 with the Kalman goal phase and seeds 0 / 1 / 2 (Table 4's runs, ``evaluation.table4_runs``). Before the hip's and
 wrists' trajectories were inputs, those medians were 0.37 / 0.40 / 0.14 m, and with seed 2 some characters blew up
 (unsmoothness 3 346 cm/s², against 154 now). Trained then on 16 clips of each of ``CLIP_KINDS`` instead (about as
@@ -142,7 +142,7 @@ class ControllerConfig:
             units (ours, as Eq. 13 noises the goal phase: without it the network leans on the recorded future and
             its own fed-back trajectories drive it off).
         unroll, unroll_steps: the last ``unroll_steps`` of the ``steps`` run the network ``unroll`` frames on its
-            own predicted pose and phase (ours; see :func:`train_controller`).
+            own predicted pose, phase and trajectories (ours; see :func:`train_controller`).
         blend_radius: metres; the ego/goal-centric blend weight reaches 1 at the goal (ours).
         phase_scale, phase_steps: the PAE's preset and, when not ``None``, its training steps.
         seed: seeds the clips, the PAE, the weights, the batches and the noise.
@@ -441,7 +441,7 @@ def build_controller(config: ControllerConfig, pae: PhaseAutoencoder) -> Control
         return ControllerNet(pae, config.hidden, config.gating_hidden, config.n_experts)
 
 
-def _noised_goal_phase(x, layout, config: ControllerConfig, generator) -> torch.Tensor:
+def _noised_inputs(x, layout, config: ControllerConfig, generator) -> torch.Tensor:
     """Eq. 13: ``N(0, phase_noise)`` on every goal phase feature, and the whole goal phase zeroed with
     probability ``phase_dropout`` (ours); ``N(0, key_noise)`` on the key-joint trajectories (ours). Returns a
     new ``x``."""
@@ -497,7 +497,7 @@ def train_controller(data: ControllerData, config: ControllerConfig, pae: PhaseA
         else:
             index = starts[torch.randint(0, len(starts), (config.batch_size,), generator=generator)][:, None] \
                 + torch.arange(U)
-        x = _noised_goal_phase(data.x[index.flatten()], model.x_layout, config, generator)
+        x = _noised_inputs(data.x[index.flatten()], model.x_layout, config, generator)
         return {"x": x.reshape(*index.shape, -1), "y": data.y[index]}
 
     def loss_fn(net, batch):
