@@ -334,6 +334,12 @@ def clip_features(clip: Motion, pae: PhaseAutoencoder) -> tuple[torch.Tensor, to
     return x.float(), y.float(), states
 
 
+def _next_root_frame(update: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """The root frame of ``t + 1`` seen from ``t``: its origin (B, 3) and rotation (B, 3, 3), from the root's update
+    ``(dx, dy, dyaw)`` (B, 3); a point ``p`` of frame ``t`` is ``Rᵀ (p − o)`` in frame ``t + 1``."""
+    return torch.cat([update[:, :2], torch.zeros_like(update[:, :1])], dim=-1), rotation_about_z(update[:, 2])
+
+
 def blended_pose(previous: torch.Tensor, predicted: torch.Tensor, update: torch.Tensor) -> torch.Tensor:
     """The pose of ``t + 1`` a step keeps (B, 132), root frame of ``t + 1``: each joint ``POSE_BLEND`` of the way
     from its previous position moved by the predicted velocity to the predicted position; the predicted velocities.
@@ -343,8 +349,7 @@ def blended_pose(previous: torch.Tensor, predicted: torch.Tensor, update: torch.
             ``t + 1`` (root frame of ``t + 1``). update: (B, 3) the root's ``(dx, dy, dyaw)`` (root frame of ``t``).
     """
     n = NUM_JOINTS * 3
-    turn = rotation_about_z(update[:, 2])  # the frame of t + 1 seen from t
-    shift = torch.cat([update[:, :2], torch.zeros_like(update[:, :1])], dim=-1)
+    shift, turn = _next_root_frame(update)
     moved = (previous[:, :n].reshape(-1, NUM_JOINTS, 3) - shift[:, None]) @ turn  # Rᵀ p per joint
     carried = moved.flatten(1) + predicted[:, n:] / FPS
     return torch.cat([(1 - POSE_BLEND) * carried + POSE_BLEND * predicted[:, :n], predicted[:, n:]], dim=-1)
@@ -355,7 +360,7 @@ def _next_future(ego: torch.Tensor, update: torch.Tensor) -> torch.Tensor:
     predicted egocentric root samples ``ego`` (B, 7·4·9, root frame of ``t``) and root update ``(dx, dy, dyaw)``."""
     B = ego.shape[0]
     root_p, root_r = _decode(ego.reshape(B, len(FUTURE_OFFSETS), len(KEY_JOINTS), TRANSFORM)[:, :, 0])
-    turn = rotation_about_z(update[:, 2])[:, :2, :2]  # (B, 2, 2): the frame of t + 1 seen from t
+    turn = _next_root_frame(update)[1][:, :2, :2]  # (B, 2, 2)
     position = torch.einsum("bji,bsj->bsi", turn, root_p[..., :2] - update[:, None, :2])
     forward = torch.einsum("bji,bsj->bsi", turn, root_r[..., :2, 1])
     return torch.cat([position, forward], dim=-1)
@@ -367,8 +372,7 @@ def next_key_trajectories(ego: torch.Tensor, update: torch.Tensor) -> torch.Tens
     root frame of ``t``) and the root update ``(dx, dy, dyaw)`` (B, 3)."""
     B = ego.shape[0]
     p, r = _decode(ego.reshape(B, len(FUTURE_OFFSETS), len(KEY_JOINTS), TRANSFORM)[:, :, 1:])
-    turn = rotation_about_z(update[:, 2])  # (B, 3, 3): the frame of t + 1 seen from t
-    shift = torch.cat([update[:, :2], torch.zeros_like(update[:, :1])], dim=-1)
+    shift, turn = _next_root_frame(update)
     return _encode(*_in_frame(p, r, shift[:, None, None], turn[:, None, None]))
 
 
@@ -738,7 +742,7 @@ def _step(model, state, goal, goal_phase, blend_radius):
     distance = (wrist_now - goal_p[torch.arange(B), WINDOW // 2, 2 + goal.hand]).norm(dim=-1)
     blend = (1.0 - distance / blend_radius).clamp(0.0, 1.0)
     blended = (1 - blend[:, None, None, None]) * ego + blend[:, None, None, None] * goal_centric
-    # the root moves; the blended root trajectory becomes the next future
+    # the root moves; the blended trajectories become the next future root and key-joint trajectories
     update = out["root_update"]
     origin = state.origin + (frame[:, :, :2] @ update[:, :2, None])[..., 0]
     heading = _wrapped(state.heading + update[:, 2])
