@@ -124,6 +124,9 @@ def test_filter_step_is_the_public_predict_and_updates_in_turn():
     state, covariance = K.filter_step(x0, P0, variance, z_pred, c, CONFIG, matched_goal=z_match, use_matched=switch)
     np.testing.assert_array_equal(state, by_hand[0])
     np.testing.assert_array_equal(covariance, by_hand[1])
+    unchecked = K.filter_step(x0, P0, variance, z_pred, c, CONFIG, matched_goal=z_match, use_matched=switch, check=False)
+    np.testing.assert_array_equal(unchecked[0], state)  # the rollout's unchecked call: the same numbers
+    np.testing.assert_array_equal(unchecked[1], covariance)
     assert not np.array_equal(state[1], K.filter_step(x0, P0, variance, z_pred, c, CONFIG, matched_goal=z_match)[0][1])
     with pytest.raises(ValueError, match="broadcast"):
         K.filter_step(x0, P0, variance, z_pred, c, CONFIG, matched_goal=z_match, use_matched=np.ones((3, 2), bool))
@@ -286,6 +289,8 @@ def test_matched_measurement_switch():
     hands = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 1.1], [0.0, 0.0, 0.0]])
     active = K.matched_measurement_active(roots, root_goal, hands, hand_goal, config)
     np.testing.assert_array_equal(active, [True, False, False])
+    np.testing.assert_array_equal(K.matched_measurement_active(roots, root_goal, hands, hand_goal, config, check=False),
+                                  active)
 
 
 # ----------------------------------------------------------------------------- errors

@@ -83,7 +83,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from .._validate import check_choice, check_positive_ints, check_shape
+from .._validate import check_choice, check_finite, check_positive_ints, check_shape
 from ..infra import TrainedModel, load_or_build, scaled_config, single_threaded, state_dict_to_cpu, train, trainer_config
 from ..nn import moe
 from ..nn.moe import MoEMLP
@@ -119,6 +119,7 @@ TRANSFORM = 9  # a key joint's position (3) and 6D rotation (6)
 # the predicted velocity, as Starke et al.'s released controllers (MANN, NSM, DeepPhase) do; CHOICE is silent.
 POSE_BLEND = 0.5
 _PELVIS, _WRISTS = joint_index("pelvis"), (joint_index("left_wrist"), joint_index("right_wrist"))
+_WRIST_INDEX = torch.tensor(_WRISTS)  # the working wrist's joint, indexed by the hand (0 left, 1 right)
 
 
 # ----------------------------------------------------------------------------- configuration
@@ -153,7 +154,7 @@ class ControllerConfig:
     hidden: int = 128
     gating_hidden: int = 64
     n_experts: int = 4
-    steps: int = 3000
+    steps: int = 2400
     batch_size: int = 32
     lr: float = 1e-3
     lr_schedule: str = "cosine"
@@ -163,7 +164,7 @@ class ControllerConfig:
     phase_dropout: float = 0.2
     key_noise: float = 0.1
     unroll: int = 6
-    unroll_steps: int = 600
+    unroll_steps: int = 400
     blend_radius: float = 1.0
     phase_scale: str = "toy"
     phase_steps: Optional[int] = None
@@ -348,8 +349,12 @@ def blended_pose(previous: torch.Tensor, predicted: torch.Tensor, update: torch.
         previous: (B, 132) the pose of ``t`` (root frame of ``t``). predicted: (B, 132) the network's pose of
             ``t + 1`` (root frame of ``t + 1``). update: (B, 3) the root's ``(dx, dy, dyaw)`` (root frame of ``t``).
     """
+    return _blended_pose(previous, predicted, *_next_root_frame(update))
+
+
+def _blended_pose(previous, predicted, shift, turn):
+    """:func:`blended_pose` with the next root frame ``(shift, turn)`` of :func:`_next_root_frame` given."""
     n = NUM_JOINTS * 3
-    shift, turn = _next_root_frame(update)
     moved = (previous[:, :n].reshape(-1, NUM_JOINTS, 3) - shift[:, None]) @ turn  # Rᵀ p per joint
     carried = moved.flatten(1) + predicted[:, n:] / FPS
     return torch.cat([(1 - POSE_BLEND) * carried + POSE_BLEND * predicted[:, :n], predicted[:, n:]], dim=-1)
@@ -360,9 +365,15 @@ def _next_future(ego: torch.Tensor, update: torch.Tensor) -> torch.Tensor:
     predicted egocentric root samples ``ego`` (B, 7·4·9, root frame of ``t``) and root update ``(dx, dy, dyaw)``."""
     B = ego.shape[0]
     root_p, root_r = _decode(ego.reshape(B, len(FUTURE_OFFSETS), len(KEY_JOINTS), TRANSFORM)[:, :, 0])
-    turn = _next_root_frame(update)[1][:, :2, :2]  # (B, 2, 2)
-    position = torch.einsum("bji,bsj->bsi", turn, root_p[..., :2] - update[:, None, :2])
-    forward = torch.einsum("bji,bsj->bsi", turn, root_r[..., :2, 1])
+    return _carried_future(root_p, root_r, update, _next_root_frame(update)[1])
+
+
+def _carried_future(root_p, root_r, update, turn):
+    """:func:`_next_future` from the decoded root samples, positions (B, 7, 3) and rotations (B, 7, 3, 3), and the
+    turn of :func:`_next_root_frame`."""
+    turn = turn[:, :2, :2]  # (B, 2, 2)
+    position = (root_p[..., :2] - update[:, None, :2]) @ turn  # Rᵀ p as pᵀ R
+    forward = root_r[..., :2, 1] @ turn
     return torch.cat([position, forward], dim=-1)
 
 
@@ -372,7 +383,12 @@ def next_key_trajectories(ego: torch.Tensor, update: torch.Tensor) -> torch.Tens
     root frame of ``t``) and the root update ``(dx, dy, dyaw)`` (B, 3)."""
     B = ego.shape[0]
     p, r = _decode(ego.reshape(B, len(FUTURE_OFFSETS), len(KEY_JOINTS), TRANSFORM)[:, :, 1:])
-    shift, turn = _next_root_frame(update)
+    return _carried_keys(p, r, *_next_root_frame(update))
+
+
+def _carried_keys(p, r, shift, turn):
+    """:func:`next_key_trajectories` from the decoded hip and wrist samples, positions (B, 7, 3, 3) and rotations
+    (B, 7, 3, 3, 3), and the next root frame ``(shift, turn)`` of :func:`_next_root_frame`."""
     return _encode(*_in_frame(p, r, shift[:, None, None], turn[:, None, None]))
 
 
@@ -669,12 +685,13 @@ def toward_goal(state: ControllerState, goal: Goal, speed: float = 1.0) -> Contr
 _FILTER_CONFIG = kalman.PhaseFilterConfig()
 
 
-def _deviation(ego: torch.Tensor, goal_centric: torch.Tensor) -> np.ndarray:
-    """``c`` of Eq. 22 (``kalman.bidirectional_deviation``) per sample, (B, 7): the 6D rotations decoded in
-    float64 so that they are orthonormal to its tolerance."""
-    p, r = _decode(torch.stack([ego, goal_centric]).double())  # both in one decode
-    p, r = p.numpy(), r.numpy()
-    return kalman.bidirectional_deviation(r[0], p[0], r[1], p[1], _FILTER_CONFIG, check=False)  # orthonormal
+def _deviation(ego_p, ego_r, goal_p, goal_r) -> np.ndarray:
+    """``c`` of Eq. 22 (``kalman.bidirectional_deviation``) per sample, (B, 7): the egocentric and goal-centric
+    key joints' positions (B, 7, 4, 3) and rotations (B, 7, 4, 3, 3) in one root frame. The rotations come from
+    Gram–Schmidt or are products of rotations, orthonormal to float32 rounding: the check is skipped."""
+    p = torch.stack([ego_p, goal_p]).double().numpy()
+    r = torch.stack([ego_r, goal_r]).double().numpy()
+    return kalman.bidirectional_deviation(r[0], p[0], r[1], p[1], _FILTER_CONFIG, check=False)
 
 
 def _check_step_inputs(model, state, goal, goal_phase):
@@ -693,7 +710,7 @@ def _check_step_inputs(model, state, goal, goal_phase):
         check_shape(value, shape, name)
 
 
-@torch.no_grad()
+@torch.inference_mode()  # no autograd bookkeeping at all: about 15 % of a batch-1 step
 def controller_step(model: ControllerNet, state: ControllerState, goal: Goal, goal_phase: torch.Tensor,
                     blend_radius: float = ControllerConfig.blend_radius):
     """One frame of the controller for ``B`` characters.
@@ -717,49 +734,48 @@ def controller_step(model: ControllerNet, state: ControllerState, goal: Goal, go
 def _step(model, state, goal, goal_phase, blend_radius):
     """:func:`controller_step` on checked inputs (a rollout checks them once: a step keeps their shapes)."""
     B = state.origin.shape[0]
+    rows = torch.arange(B)
     frame = rotation_about_z(state.heading)
-    # inputs in the root frame of t
-    past = state.history[:, :PAST:SAMPLE_STEP]  # frames t − 30, ..., t − 5
-    past_p = (past[..., :2] - state.origin[:, None, :2]) @ frame[:, :2, :2]
-    past_dir = past[..., 2:] @ frame[:, :2, :2]
-    trajectory = torch.cat([torch.cat([past_p, past_dir], -1), state.future], dim=1)
+    # inputs in the root frame of t; the past samples' positions and forward directions in one product
+    past = state.history[:, :PAST:SAMPLE_STEP].reshape(B, -1, 2, 2)  # frames t − 30, ..., t − 5: (position, forward)
+    past = (past - torch.cat([state.origin[:, :2], state.origin.new_zeros(B, 2)], -1).reshape(B, 1, 2, 2)) \
+        @ frame[:, None, :2, :2]
+    trajectory = torch.cat([past.reshape(B, -1, 4), state.future], dim=1)
     goal_p, goal_r = _in_frame(goal.positions, goal.rotations, state.origin[:, None, None], frame[:, None, None])
     x = torch.cat([state.pose, trajectory.flatten(1), _encode(goal_p, goal_r).flatten(1), state.phase, goal_phase,
                    state.keys.flatten(1)], -1)
     y = model(x)
-    out = {name: y[:, part] for name, part in model.y_layout.items()}
+    layout = model.y_layout
     future_shape = (B, len(FUTURE_OFFSETS), len(KEY_JOINTS), TRANSFORM)
-    ego = out["ego"].reshape(future_shape)
-    inv_p, inv_r = _decode(out["inv"].reshape(future_shape))
+    ego = y[:, layout["ego"]].reshape(future_shape)
+    inv_p, inv_r = _decode(y[:, layout["inv"]].reshape(future_shape))
     centre_p, centre_r = goal_p[:, WINDOW // 2], goal_r[:, WINDOW // 2]  # G per key joint (B, 4, ...)
     mapped_p = (centre_r[:, None] @ inv_p[..., None])[..., 0] + centre_p[:, None]  # Eq. 14: G T^inv
     mapped_r = centre_r[:, None] @ inv_r
     goal_centric = _encode(mapped_p, mapped_r)
-    deviation = _deviation(ego, goal_centric).mean(-1)
+    deviation = _deviation(*_decode(ego), mapped_p, mapped_r).mean(-1)
     # blend toward the goal-centric trajectory as the working wrist nears its goal
-    pose = state.pose[:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3)
-    wrist_now = pose[torch.arange(B), torch.as_tensor(_WRISTS)[goal.hand]]
-    distance = (wrist_now - goal_p[torch.arange(B), WINDOW // 2, 2 + goal.hand]).norm(dim=-1)
+    wrist_now = state.pose[:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3)[rows, _WRIST_INDEX[goal.hand]]
+    distance = (wrist_now - goal_p[rows, WINDOW // 2, 2 + goal.hand]).norm(dim=-1)
     blend = (1.0 - distance / blend_radius).clamp(0.0, 1.0)
     blended = (1 - blend[:, None, None, None]) * ego + blend[:, None, None, None] * goal_centric
-    # the root moves; the blended trajectories become the next future root and key-joint trajectories
-    update = out["root_update"]
+    # the root moves; the blended trajectories, carried into the next root frame, are the next future root and
+    # key-joint trajectories
+    update = y[:, layout["root_update"]]
+    shift, turn = _next_root_frame(update)
     origin = state.origin + (frame[:, :, :2] @ update[:, :2, None])[..., 0]
     heading = _wrapped(state.heading + update[:, 2])
     new_frame = rotation_about_z(heading)
-    root_p, root_r = _decode(blended[:, :, 0])
-    world_p = root_p @ frame.transpose(-1, -2) + state.origin[:, None]
-    next_p, next_r = _in_frame(world_p, frame[:, None] @ root_r, origin[:, None], new_frame[:, None])
-    future = torch.cat([next_p[..., :2], next_r[..., :2, 1]], dim=-1)
+    blended_p, blended_r = _decode(blended)
     history = torch.cat([state.history[:, 1:], _ground(origin, heading)[:, None]], dim=1)
-    next_state = ControllerState(origin, heading, blended_pose(state.pose, out["pose"], update), history, future,
-                                 out["phase"], next_key_trajectories(blended, update))
+    next_state = ControllerState(origin, heading, _blended_pose(state.pose, y[:, layout["pose"]], shift, turn), history,
+                                 _carried_future(blended_p[:, :, 0], blended_r[:, :, 0], update, turn),
+                                 y[:, layout["phase"]], _carried_keys(blended_p[:, :, 1:], blended_r[:, :, 1:], shift, turn))
     world = next_state.pose[:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3) @ new_frame.transpose(-1, -2) + origin[:, None]
-    wrist = world[:, list(_WRISTS)]
-    outputs = {"joints": world, "wrist": wrist, "ego": ego, "goal_centric": goal_centric, "blended": blended, "blend": blend,
-               "deviation": torch.as_tensor(deviation, dtype=torch.float32),
-               "goal": out["goal"].reshape(B, WINDOW, len(KEY_JOINTS), TRANSFORM),
-               "goal_phase_state": phase_state(out["goal_phase"])}
+    outputs = {"joints": world, "wrist": world[:, _WRIST_INDEX], "ego": ego, "goal_centric": goal_centric, "blended": blended,
+               "blend": blend, "deviation": torch.as_tensor(deviation, dtype=torch.float32),
+               "goal": y[:, layout["goal"]].reshape(B, WINDOW, len(KEY_JOINTS), TRANSFORM),
+               "goal_phase_state": phase_state(y[:, layout["goal_phase"]])}
     return next_state, outputs
 
 
@@ -785,7 +801,7 @@ class Rollout(NamedTuple):
     state: ControllerState
 
 
-@torch.no_grad()
+@torch.inference_mode()
 def rollout(model: ControllerNet, state: ControllerState, goal: Goal, frames: int, variant: str = "kalman",
             blend_radius: float = ControllerConfig.blend_radius,
             filter_config: kalman.PhaseFilterConfig = kalman.PhaseFilterConfig()) -> Rollout:
@@ -806,7 +822,7 @@ def rollout(model: ControllerNet, state: ControllerState, goal: Goal, frames: in
     covariance = np.zeros(estimate.shape + (3,))
     variance = model.phase_variance.double().numpy()
     centre = goal.positions[:, WINDOW // 2]
-    root_goal, hand_goal = centre[:, 0, :2].numpy(), centre[torch.arange(B), 2 + goal.hand].numpy()
+    root_goal, hand_goal = centre[:, 0, :2].double().numpy(), centre[torch.arange(B), 2 + goal.hand].double().numpy()
     records = []
     for _ in range(frames):
         fed = torch.zeros(B, 3 * model.channels) if variant == "none" else goal_phase_features(
@@ -816,12 +832,14 @@ def rollout(model: ControllerNet, state: ControllerState, goal: Goal, frames: in
         if variant == "predicted":
             estimate = predicted
         elif variant == "kalman":
+            check_finite(predicted, "the network's goal phase")  # a blown-up step stops here, not in the filter
             hand = out["wrist"][torch.arange(B), goal.hand]
-            active = kalman.matched_measurement_active(state.origin[:, :2].numpy(), root_goal, hand.numpy(), hand_goal,
-                                                       filter_config)
+            # float64 arrays of the shapes checked before the loop, the deviation ≥ 0 by construction: unchecked
+            active = kalman.matched_measurement_active(state.origin[:, :2].double().numpy(), root_goal,
+                                                       hand.double().numpy(), hand_goal, filter_config, check=False)
             estimate, covariance = kalman.filter_step(estimate, covariance, variance, predicted,
                                                       out["deviation"].double().numpy()[:, None], filter_config,
-                                                      matched_goal=matched, use_matched=active[:, None])
+                                                      matched_goal=matched, use_matched=active[:, None], check=False)
         records.append((out["joints"], out["wrist"], state.origin, fed, out["goal_phase_state"], out["deviation"]))
     joints, wrist, origin, fed, predicted, deviation = (torch.stack(v) for v in zip(*records))
     return Rollout(joints, wrist, origin, fed, predicted, deviation, state)

@@ -270,6 +270,11 @@ def process_noise(variance, config: PhaseFilterConfig) -> np.ndarray:
     variance = _array(variance, (..., 3), "variance")
     if np.any(variance <= 0):
         raise ValueError(f"variance: expected positive variances of [S, A, F], got a minimum of {variance.min()}")
+    return _process_noise(variance, config)
+
+
+def _process_noise(variance: np.ndarray, config: PhaseFilterConfig) -> np.ndarray:
+    """:func:`process_noise` of a checked float64 ``σ̄``."""
     return config.noise_scale * variance[..., :, None] * np.eye(3)
 
 
@@ -339,7 +344,7 @@ def _updated(goal_phase, covariance, measurement, noise, config, active, batch) 
     S = covariance + noise
     # K = P S⁻¹, solved as Sᵀ Kᵀ = Pᵀ.
     gain = np.swapaxes(np.linalg.solve(np.swapaxes(S, -1, -2), np.swapaxes(covariance, -1, -2)), -1, -2)
-    updated = _constrained(goal_phase + np.einsum("...ij,...j->...i", gain, innovation), config)
+    updated = _constrained(goal_phase + (gain @ innovation[..., None])[..., 0], config)
     updated_covariance = covariance - gain @ covariance
     if active is not None:
         active = np.asarray(active, dtype=bool)
@@ -408,27 +413,30 @@ def _checked_deviation_inputs(ego_rotations, ego_positions, goal_rotations, goal
     return ego_rotations, ego_positions, goal_rotations, goal_positions
 
 
-def matched_measurement_active(root, root_goal, hand, hand_goal, config: PhaseFilterConfig) -> np.ndarray:
+def matched_measurement_active(root, root_goal, hand, hand_goal, config: PhaseFilterConfig,
+                               check: bool = True) -> np.ndarray:
     """Algorithm 1's switch for the matched-motion measurement: ``Nearby(root) ∧ ¬Nearby(hand)``.
 
     Args:
         root, root_goal: (..., D) the root and its goal, metres (D = 2 on the ground, or 3).
         hand, hand_goal: (..., D) the working hand's wrist and its goal, metres.
+        check: False skips the input checks for float64 arrays of matching shapes (``controller.rollout``'s loop).
     Returns:
         bool (...): the root within ``nearby_radius`` of its goal and the hand not.
     """
-    root, root_goal = _array(root, (..., None), "root"), _array(root_goal, (..., None), "root_goal")
-    hand, hand_goal = _array(hand, (..., None), "hand"), _array(hand_goal, (..., None), "hand_goal")
-    for name, x, ref in (("root_goal", root_goal, root), ("hand_goal", hand_goal, hand)):
-        if x.shape[-1] != ref.shape[-1]:
-            raise ValueError(f"{name}: expected {ref.shape[-1]} coordinates as its point, got {x.shape[-1]}")
+    if check:
+        root, root_goal = _array(root, (..., None), "root"), _array(root_goal, (..., None), "root_goal")
+        hand, hand_goal = _array(hand, (..., None), "hand"), _array(hand_goal, (..., None), "hand_goal")
+        for name, x, ref in (("root_goal", root_goal, root), ("hand_goal", hand_goal, hand)):
+            if x.shape[-1] != ref.shape[-1]:
+                raise ValueError(f"{name}: expected {ref.shape[-1]} coordinates as its point, got {x.shape[-1]}")
     root_near = np.linalg.norm(root - root_goal, axis=-1) < config.nearby_radius
     hand_near = np.linalg.norm(hand - hand_goal, axis=-1) < config.nearby_radius
     return root_near & ~hand_near
 
 
 def filter_step(goal_phase, covariance, variance, predicted_goal, deviation, config: PhaseFilterConfig,
-                matched_goal=None, use_matched=None) -> tuple[np.ndarray, np.ndarray]:
+                matched_goal=None, use_matched=None, check: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """One pass of Algorithm 1's loop, after the network's inference.
 
     1. Predict (Eq. 18) with ``F`` and ``Q = 0.2 diag(σ̄)`` (Eq. 19).
@@ -443,22 +451,28 @@ def filter_step(goal_phase, covariance, variance, predicted_goal, deviation, con
         matched_goal: optional (..., 3) ``G^p_match``, the matched motion's phase at the goal.
         use_matched: bool (...) where to use it (:func:`matched_measurement_active`); ``None``:
             everywhere ``matched_goal`` is given.
+        check: False skips the input checks (shapes, finite values, signs) for float64 arrays whose batch
+            shapes broadcast, as in ``controller.rollout``'s loop, which checks its inputs once.
     Returns:
         ``(G^p_{t+1}, P_{t+1})``, (..., 3) and (..., 3, 3).
     """
     if use_matched is not None and matched_goal is None:
         raise ValueError("use_matched: expected matched_goal (..., 3) with it, got matched_goal=None")
     # each input checked once; then Eqs. 18 and 20 on the checked arrays
-    goal_phase = _array(goal_phase, (..., 3), "goal_phase")
-    covariance = _check_covariance(covariance, "covariance")
-    predicted_goal = _array(predicted_goal, (..., 3), "predicted_goal")
-    deviation = _array(deviation, (...,), "deviation")
-    _nonnegative(deviation, "deviation")
-    noise = process_noise(variance, config)
+    if check:
+        goal_phase = _array(goal_phase, (..., 3), "goal_phase")
+        covariance = _check_covariance(covariance, "covariance")
+        predicted_goal = _array(predicted_goal, (..., 3), "predicted_goal")
+        deviation = _array(deviation, (...,), "deviation")
+        _nonnegative(deviation, "deviation")
+        noise = process_noise(variance, config)
+        if matched_goal is not None:
+            matched_goal = _array(matched_goal, (..., 3), "matched_goal")
+    else:
+        noise = _process_noise(variance, config)
     shapes = dict(goal_phase=goal_phase.shape[:-1], covariance=covariance.shape[:-2], noise=noise.shape[:-2],
                   predicted_goal=predicted_goal.shape[:-1], deviation=deviation.shape)
     if matched_goal is not None:
-        matched_goal = _array(matched_goal, (..., 3), "matched_goal")
         shapes["matched_goal"] = matched_goal.shape[:-1]
         if use_matched is not None:
             use_matched = np.asarray(use_matched, dtype=bool)
