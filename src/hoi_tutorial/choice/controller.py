@@ -56,14 +56,16 @@ Choices the paper does not state, ours:
 - A rollout starts with the future root trajectory on the straight line to the goal's root at 1 m/s
   (:func:`toward_goal`; a standing start is a fixed point the toy controller may not leave).
 
-Measured at toy (one CPU thread): 48 clips, about 8 400 frames, 3000 steps (the last 600 unrolled over 6 frames)
-in about 70 s. On 12 unseen reaches the working wrist comes within a median 0.13 / 0.31 / 0.38 m of its grasp
-with the Kalman goal phase and seeds 0 / 1 / 2 (Table 4's runs, ``evaluation.table4_runs``). Before the hip's and
-wrists' trajectories were inputs, those medians were 0.37 / 0.40 / 0.14 m, and with seed 2 some characters blew up
-(unsmoothness 3 346 cm/s², against 154 now). Trained then on 16 clips of each of ``CLIP_KINDS`` instead (about as
-many frames), the medians were 0.30 / 0.23 / 0.14 m and the door wrist of ``pick_and_place.controller_at_cabinet``
-came within 0.46 / 0.31 / 0.47 m of the demo's handle against 0.59 / 0.44 / 0.32 m: better on two seeds of three,
-still tens of centimetres short, so the toy preset keeps reach-and-grasp clips only.
+Measured at toy (one CPU thread): 48 clips, about 8 400 frames, 2400 steps (the last 400 unrolled over 6 frames)
+in 51 / 54 / 52 s with seeds 0 / 1 / 2. On 12 unseen reaches the working wrist comes within a median 0.13 / 0.22 /
+0.31 m of its grasp with the Kalman goal phase, 0.08 / 0.17 / 0.20 m without a goal phase (Table 4's runs,
+``evaluation.table4_runs``); 3000 steps (600 unrolled) took about 70 s for Kalman medians of 0.13 / 0.31 / 0.38 m.
+Before the hip's and wrists' trajectories were inputs, those medians were 0.37 / 0.40 / 0.14 m, and with seed 2 some
+characters blew up (unsmoothness 3 346 cm/s², against 156 now). Trained on 16 clips of each of ``CLIP_KINDS``
+instead (about as many frames, 2400 steps), the door wrist of ``pick_and_place.controller_at_cabinet`` came within
+0.31 / 0.22 / 0.28 m of the demo's handle from its standing start, against 0.63 / 0.43 / 0.43 m: nearer, still 20–30
+cm short, while Table 4's Kalman row slid 246 / 389 / 193 cm/s² against 158 / 98 / 194 and, with seed 1, moved less
+smoothly than the recorded clips (381 against 299 cm/s²). So the toy preset keeps reach-and-grasp clips only.
 
 Scaling (paper → toy): 8 PAE channels → 4 (``phase``); gating 3 × 128 → 2 × 64 hidden + output, main
 network 3 × 512 → 3 × 128; experts (not stated in CHOICE; DeepPhase 8) → 4; 70 % of 150 sequences for
