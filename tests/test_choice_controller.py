@@ -69,7 +69,7 @@ def test_eq14_goal_centric_targets_map_back_to_the_egocentric_ones(trained, clip
     g_p, g_r = ctl._decode(goal)
     mapped = ctl._encode(torch.einsum("nkij,nskj->nski", g_r, inv_p) + g_p[:, None], g_r[:, None] @ inv_r)
     assert torch.allclose(mapped, ego, atol=1e-4)
-    assert np.allclose(ctl._deviation(*ctl._decode(ego), *ctl._decode(mapped)), 0.0, atol=1e-3)
+    assert np.allclose(ctl._deviation(*ctl._decode(ego), *ctl._decode(mapped), kalman.PhaseFilterConfig()), 0.0, atol=1e-3)
 
 
 def test_training_lowers_the_loss(trained):
@@ -115,6 +115,20 @@ def test_the_variants_differ_only_in_the_goal_phase(trained, start):
     # the same goal phase gives the same step whatever the variant's name
     assert torch.equal(runs["matched"].wrist[0], runs["kalman"].wrist[0])
     assert not torch.equal(runs["none"].wrist[-1], runs["matched"].wrist[-1])
+
+
+def test_the_deviation_weighs_with_the_rollouts_filter_config(trained, start):
+    # Eq. 22's weights come from the filter_config passed in: both doubled, c doubles (exactly: powers of two)
+    state, goal = start
+    default = kalman.PhaseFilterConfig()
+    doubled = kalman.PhaseFilterConfig(rotation_weight=2 * default.rotation_weight,
+                                       body_width=kalman.mean_body_width() / 2)
+    run = ctl.rollout(trained.model, state, goal, 3, "none")
+    assert bool((run.deviation > 0).all())
+    assert torch.equal(ctl.rollout(trained.model, state, goal, 3, "none", filter_config=doubled).deviation,
+                       2 * run.deviation)
+    _, out = ctl.controller_step(trained.model, state, goal, torch.zeros_like(state.phase), filter_config=doubled)
+    assert torch.equal(out["deviation"], 2 * run.deviation[0])
 
 
 def test_the_kalman_goal_phase_is_filter_step_by_hand(trained, start):

@@ -684,16 +684,13 @@ def toward_goal(state: ControllerState, goal: Goal, speed: float = 1.0) -> Contr
     return state._replace(future=torch.cat([position, forward], dim=-1))
 
 
-_FILTER_CONFIG = kalman.PhaseFilterConfig()
-
-
-def _deviation(ego_p, ego_r, goal_p, goal_r) -> np.ndarray:
+def _deviation(ego_p, ego_r, goal_p, goal_r, config: kalman.PhaseFilterConfig) -> np.ndarray:
     """``c`` of Eq. 22 (``kalman.bidirectional_deviation``) per sample, (B, 7): the egocentric and goal-centric
     key joints' positions (B, 7, 4, 3) and rotations (B, 7, 4, 3, 3) in one root frame. The rotations come from
     Gram–Schmidt or are products of rotations, orthonormal to float32 rounding: the check is skipped."""
     p = torch.stack([ego_p, goal_p]).double().numpy()
     r = torch.stack([ego_r, goal_r]).double().numpy()
-    return kalman.bidirectional_deviation(r[0], p[0], r[1], p[1], _FILTER_CONFIG, check=False)
+    return kalman.bidirectional_deviation(r[0], p[0], r[1], p[1], config, check=False)
 
 
 def _check_step_inputs(model, state, goal, goal_phase):
@@ -714,7 +711,8 @@ def _check_step_inputs(model, state, goal, goal_phase):
 
 @torch.inference_mode()  # no autograd bookkeeping at all: about 15 % of a batch-1 step
 def controller_step(model: ControllerNet, state: ControllerState, goal: Goal, goal_phase: torch.Tensor,
-                    blend_radius: float = ControllerConfig.blend_radius):
+                    blend_radius: float = ControllerConfig.blend_radius,
+                    filter_config: kalman.PhaseFilterConfig = kalman.PhaseFilterConfig()):
     """One frame of the controller for ``B`` characters.
 
     Args:
@@ -722,6 +720,7 @@ def controller_step(model: ControllerNet, state: ControllerState, goal: Goal, go
         goal: their :class:`Goal`.
         goal_phase: (B, 3C) the goal phase features fed to the network (Eq. 13 without noise; zeros for ``"none"``).
         blend_radius: metres; the weight of ``G T^inv`` is ``clip(1 − d / blend_radius, 0, 1)``.
+        filter_config: the weights of Eq. 22's deviation (``rotation_weight``, ``position_weight``).
     Returns:
         ``(state at t + 1, outputs)``; ``outputs``: ``joints`` (B, 22, 3) and ``wrist`` (B, 2, 3) world
         positions at ``t + 1``,
@@ -730,10 +729,10 @@ def controller_step(model: ControllerNet, state: ControllerState, goal: Goal, go
         ``goal`` (B, 13, 4, 9) the goal estimate, ``goal_phase_state`` (B, C, 3) its ``[S, A, F]``.
     """
     _check_step_inputs(model, state, goal, goal_phase)
-    return _step(model, state, goal, goal_phase, blend_radius)
+    return _step(model, state, goal, goal_phase, blend_radius, filter_config)
 
 
-def _step(model, state, goal, goal_phase, blend_radius):
+def _step(model, state, goal, goal_phase, blend_radius, filter_config):
     """:func:`controller_step` on checked inputs (a rollout checks them once: a step keeps their shapes)."""
     B = state.origin.shape[0]
     rows = torch.arange(B)
@@ -755,7 +754,7 @@ def _step(model, state, goal, goal_phase, blend_radius):
     mapped_p = (centre_r[:, None] @ inv_p[..., None])[..., 0] + centre_p[:, None]  # Eq. 14: G T^inv
     mapped_r = centre_r[:, None] @ inv_r
     goal_centric = _encode(mapped_p, mapped_r)
-    deviation = _deviation(*_decode(ego), mapped_p, mapped_r).mean(-1)
+    deviation = _deviation(*_decode(ego), mapped_p, mapped_r, filter_config).mean(-1)
     # blend toward the goal-centric trajectory as the working wrist nears its goal
     wrist_now = state.pose[:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3)[rows, _WRIST_INDEX[goal.hand]]
     distance = (wrist_now - goal_p[rows, WINDOW // 2, 2 + goal.hand]).norm(dim=-1)
@@ -829,7 +828,7 @@ def rollout(model: ControllerNet, state: ControllerState, goal: Goal, frames: in
     for _ in range(frames):
         fed = torch.zeros(B, 3 * model.channels) if variant == "none" else goal_phase_features(
             goal.phase if variant == "matched" else estimate)
-        state, out = _step(model, state, goal, fed, blend_radius)
+        state, out = _step(model, state, goal, fed, blend_radius, filter_config)
         predicted = out["goal_phase_state"].double().numpy()
         if variant == "predicted":
             estimate = predicted
