@@ -124,7 +124,8 @@ def test_filter_step_is_the_public_predict_and_updates_in_turn():
     state, covariance = K.filter_step(x0, P0, variance, z_pred, c, CONFIG, matched_goal=z_match, use_matched=switch)
     np.testing.assert_array_equal(state, by_hand[0])
     np.testing.assert_array_equal(covariance, by_hand[1])
-    unchecked = K.filter_step(x0, P0, variance, z_pred, c, CONFIG, matched_goal=z_match, use_matched=switch, check=False)
+    unchecked = K.filter_step(x0, P0, variance, z_pred, c, CONFIG, matched_goal=z_match, use_matched=switch,
+                              check=False)
     np.testing.assert_array_equal(unchecked[0], state)  # the rollout's unchecked call: the same numbers
     np.testing.assert_array_equal(unchecked[1], covariance)
     assert not np.array_equal(state[1], K.filter_step(x0, P0, variance, z_pred, c, CONFIG, matched_goal=z_match)[0][1])

@@ -738,7 +738,7 @@ def _step(model, state, goal, goal_phase, blend_radius, filter_config):
     rows = torch.arange(B)
     frame = rotation_about_z(state.heading)
     # inputs in the root frame of t; the past samples' positions and forward directions in one product
-    past = state.history[:, :PAST:SAMPLE_STEP].reshape(B, -1, 2, 2)  # frames t − 30, ..., t − 5: (position, forward)
+    past = state.history[:, :PAST:SAMPLE_STEP].reshape(B, -1, 2, 2)  # t − 30, ..., t − 5: (position, forward)
     past = (past - torch.cat([state.origin[:, :2], state.origin.new_zeros(B, 2)], -1).reshape(B, 1, 2, 2)) \
         @ frame[:, None, :2, :2]
     trajectory = torch.cat([past.reshape(B, -1, 4), state.future], dim=1)
@@ -769,12 +769,14 @@ def _step(model, state, goal, goal_phase, blend_radius, filter_config):
     new_frame = rotation_about_z(heading)
     blended_p, blended_r = _decode(blended)
     history = torch.cat([state.history[:, 1:], _ground(origin, heading)[:, None]], dim=1)
-    next_state = ControllerState(origin, heading, _blended_pose(state.pose, y[:, layout["pose"]], shift, turn), history,
-                                 _carried_future(blended_p[:, :, 0], blended_r[:, :, 0], update, turn),
-                                 y[:, layout["phase"]], _carried_keys(blended_p[:, :, 1:], blended_r[:, :, 1:], shift, turn))
-    world = next_state.pose[:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3) @ new_frame.transpose(-1, -2) + origin[:, None]
-    outputs = {"joints": world, "wrist": world[:, _WRIST_INDEX], "ego": ego, "goal_centric": goal_centric, "blended": blended,
-               "blend": blend, "deviation": torch.as_tensor(deviation, dtype=torch.float32),
+    next_state = ControllerState(origin, heading, _blended_pose(state.pose, y[:, layout["pose"]], shift, turn),
+                                 history, _carried_future(blended_p[:, :, 0], blended_r[:, :, 0], update, turn),
+                                 y[:, layout["phase"]],
+                                 _carried_keys(blended_p[:, :, 1:], blended_r[:, :, 1:], shift, turn))
+    pose = next_state.pose[:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3)
+    world = pose @ new_frame.transpose(-1, -2) + origin[:, None]
+    outputs = {"joints": world, "wrist": world[:, _WRIST_INDEX], "ego": ego, "goal_centric": goal_centric,
+               "blended": blended, "blend": blend, "deviation": torch.as_tensor(deviation, dtype=torch.float32),
                "goal": y[:, layout["goal"]].reshape(B, WINDOW, len(KEY_JOINTS), TRANSFORM),
                "goal_phase_state": phase_state(y[:, layout["goal_phase"]])}
     return next_state, outputs
