@@ -367,14 +367,14 @@ def _next_future(ego: torch.Tensor, update: torch.Tensor) -> torch.Tensor:
     predicted egocentric root samples ``ego`` (B, 7·4·9, root frame of ``t``) and root update ``(dx, dy, dyaw)``."""
     B = ego.shape[0]
     root_p, root_r = _decode(ego.reshape(B, len(FUTURE_OFFSETS), len(KEY_JOINTS), TRANSFORM)[:, :, 0])
-    return _carried_future(root_p, root_r, update, _next_root_frame(update)[1])
+    return _carried_future(root_p, root_r, *_next_root_frame(update))
 
 
-def _carried_future(root_p, root_r, update, turn):
+def _carried_future(root_p, root_r, shift, turn):
     """:func:`_next_future` from the decoded root samples, positions (B, 7, 3) and rotations (B, 7, 3, 3), and the
-    turn of :func:`_next_root_frame`."""
+    next root frame ``(shift, turn)`` of :func:`_next_root_frame`."""
     turn = turn[:, :2, :2]  # (B, 2, 2)
-    position = (root_p[..., :2] - update[:, None, :2]) @ turn  # Rᵀ p as pᵀ R
+    position = (root_p[..., :2] - shift[:, None, :2]) @ turn  # Rᵀ p as pᵀ R
     forward = root_r[..., :2, 1] @ turn
     return torch.cat([position, forward], dim=-1)
 
@@ -688,9 +688,8 @@ def _deviation(ego_p, ego_r, goal_p, goal_r, config: kalman.PhaseFilterConfig) -
     """``c`` of Eq. 22 (``kalman.bidirectional_deviation``) per sample, (B, 7): the egocentric and goal-centric
     key joints' positions (B, 7, 4, 3) and rotations (B, 7, 4, 3, 3) in one root frame. The rotations come from
     Gram–Schmidt or are products of rotations, orthonormal to float32 rounding: the check is skipped."""
-    p = torch.stack([ego_p, goal_p]).double().numpy()
-    r = torch.stack([ego_r, goal_r]).double().numpy()
-    return kalman.bidirectional_deviation(r[0], p[0], r[1], p[1], config, check=False)
+    ego_p, ego_r, goal_p, goal_r = (x.double().numpy() for x in (ego_p, ego_r, goal_p, goal_r))
+    return kalman.bidirectional_deviation(ego_r, ego_p, goal_r, goal_p, config, check=False)
 
 
 def _check_step_inputs(model, state, goal, goal_phase):
@@ -737,11 +736,11 @@ def _step(model, state, goal, goal_phase, blend_radius, filter_config):
     B = state.origin.shape[0]
     rows = torch.arange(B)
     frame = rotation_about_z(state.heading)
-    # inputs in the root frame of t; the past samples' positions and forward directions in one product
-    past = state.history[:, :PAST:SAMPLE_STEP].reshape(B, -1, 2, 2)  # t − 30, ..., t − 5: (position, forward)
-    past = (past - torch.cat([state.origin[:, :2], state.origin.new_zeros(B, 2)], -1).reshape(B, 1, 2, 2)) \
-        @ frame[:, None, :2, :2]
-    trajectory = torch.cat([past.reshape(B, -1, 4), state.future], dim=1)
+    # inputs in the root frame of t
+    past = state.history[:, :PAST:SAMPLE_STEP]  # frames t − 30, ..., t − 5
+    past_p = (past[..., :2] - state.origin[:, None, :2]) @ frame[:, :2, :2]
+    past_dir = past[..., 2:] @ frame[:, :2, :2]
+    trajectory = torch.cat([torch.cat([past_p, past_dir], -1), state.future], dim=1)
     goal_p, goal_r = _in_frame(goal.positions, goal.rotations, state.origin[:, None, None], frame[:, None, None])
     x = torch.cat([state.pose, trajectory.flatten(1), _encode(goal_p, goal_r).flatten(1), state.phase, goal_phase,
                    state.keys.flatten(1)], -1)
@@ -770,7 +769,7 @@ def _step(model, state, goal, goal_phase, blend_radius, filter_config):
     blended_p, blended_r = _decode(blended)
     history = torch.cat([state.history[:, 1:], _ground(origin, heading)[:, None]], dim=1)
     next_state = ControllerState(origin, heading, _blended_pose(state.pose, y[:, layout["pose"]], shift, turn),
-                                 history, _carried_future(blended_p[:, :, 0], blended_r[:, :, 0], update, turn),
+                                 history, _carried_future(blended_p[:, :, 0], blended_r[:, :, 0], shift, turn),
                                  y[:, layout["phase"]],
                                  _carried_keys(blended_p[:, :, 1:], blended_r[:, :, 1:], shift, turn))
     pose = next_state.pose[:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3)
