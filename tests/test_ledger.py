@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
-from hoi_tutorial import ledger
+from hoi_tutorial import intervals, ledger
 from hoi_tutorial.ledger import claims as claims_module
 from hoi_tutorial.nifty import paper_numbers as nifty_numbers
 
@@ -82,9 +82,31 @@ def test_claim_validation_and_lookup():
 
 @pytest.mark.parametrize("checks, status", [
     ({"a": True, "b": True}, "reproduced"), ({"a": True, "b": False}, "partly"),
-    ({"a": False}, "not reproduced"), (None, "shown"), ({}, "shown")])
+    ({"a": False}, "not reproduced"), (None, "shown"), ({}, "shown"),
+    ({"a": "held", "b": True}, "reproduced"), ({"a": "inconclusive"}, "inconclusive"),
+    ({"a": "inconclusive", "b": "inconclusive"}, "inconclusive"), ({"a": "held", "b": "inconclusive"}, "partly"),
+    ({"a": "not held", "b": "inconclusive"}, "not reproduced")])
 def test_status_follows_from_the_checks(checks, status):
     assert ledger.status_of(checks) == status
+
+
+def test_an_interval_that_straddles_zero_is_recorded_inconclusive(tmp_cache):
+    # A direction measured with a paired bootstrap: a difference that noise alone could give is neither
+    # reproduced nor refuted.
+    rng = np.random.default_rng(0)
+    a = rng.normal(0, 1, 24)
+    noise_only = intervals.paired_difference(a + rng.normal(0, 0.1, 24), a)   # no effect, only noise
+    clear = intervals.paired_difference(a + 1.0, a)
+    made = ledger.record("nifty.t4.samples", seed=0, scale="toy", ours="text",
+                         checks={"falls (noise)": noise_only.verdict("above"), "falls (clear)": clear.verdict("above")})
+    assert noise_only.verdict("above") == "inconclusive"
+    assert made.checks == (("falls (noise)", "inconclusive"), ("falls (clear)", "held"))
+    assert made.status == "partly" and made.status_text() == "partly (1 of 2; 1 inconclusive)"
+    alone = ledger.record("nifty.t4.samples", seed=1, scale="toy", ours="text",
+                          checks={"falls (noise)": noise_only.verdict("above")})
+    assert alone.status == "inconclusive" and alone.status_text() == "inconclusive (0 of 1; 1 inconclusive)"
+    assert ledger.load_record("nifty.t4.samples", 1, "toy") == alone
+    assert "falls (noise): inconclusive" in ledger.chapter_summary([alone]).data["checked"][0]
 
 
 def test_record_round_trip(tmp_cache):
@@ -104,6 +126,8 @@ def test_record_rejects_bad_input(tmp_cache):
         ledger.record("nifty.unknown", **good)
     with pytest.raises(TypeError, match="computed bool"):
         ledger.record("nifty.t4.samples", checks={"falls": 0.3}, **good)
+    with pytest.raises(TypeError, match="verdict"):
+        ledger.record("nifty.t4.samples", checks={"falls": "yes"}, **good)
     with pytest.raises(ValueError, match="name in words"):
         ledger.record("nifty.t4.samples", checks={"": True}, **good)
     with pytest.raises(ValueError, match="ours"):

@@ -13,14 +13,17 @@ Typical use at the end of a chapter::
     from hoi_tutorial import ledger
 
     ledger.record("nifty.t4.samples", seed=SEED, scale=SCALE,
-                  checks={"skeleton distance falls from N = 1 to 10 (sit)": d10 < d1},
+                  checks={"skeleton distance falls from N = 1 to 10 (sit)": gap.verdict("above")},
                   ours=f"mean skeleton distance {d1:.2f} m with N = 1, {d10:.2f} m with N = 10")
+
+where ``gap = intervals.paired_difference(skel_1, skel_10)`` is the paired bootstrap interval over the same test
+scenes: a direction whose interval straddles zero is recorded as *inconclusive*.
 """
 from .claims import CLAIMS, PAPERS, Claim, claim
 from .records import (STATUSES, ClaimRecord, LedgerError, chapter_digest, chapter_summary, chapter_title,
                       ledger_rows, library_digest, load_record, markdown_table, record, record_path, status_of,
-                      summary)
+                      summary, verdict_of)
 
 __all__ = ["CLAIMS", "PAPERS", "Claim", "claim", "STATUSES", "ClaimRecord", "LedgerError", "chapter_digest",
            "chapter_summary", "chapter_title", "ledger_rows", "library_digest", "load_record",
-           "markdown_table", "record", "record_path", "status_of", "summary"]
+           "markdown_table", "record", "record_path", "status_of", "summary", "verdict_of"]

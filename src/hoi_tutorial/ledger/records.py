@@ -20,19 +20,21 @@ from typing import Mapping, Optional, Sequence
 import numpy as np
 
 from ..infra.cache import cache_dir
+from ..intervals import VERDICTS
 from .claims import CLAIMS, PAPERS, Claim, claim
 
-__all__ = ["STATUSES", "ClaimRecord", "LedgerError", "record", "load_record", "record_path", "status_of",
+__all__ = ["STATUSES", "ClaimRecord", "LedgerError", "record", "load_record", "record_path", "status_of", "verdict_of",
            "chapter_digest", "library_digest", "chapter_title", "ledger_rows", "markdown_table", "summary",
            "chapter_summary"]
 
-# In the order the ledger counts them. "shown": a figure or an algorithm, no direction to check;
+# In the order the ledger counts them. "inconclusive": every checked direction's interval straddles its threshold
+# (neither reproduced nor refuted at this sample size); "shown": a figure or an algorithm, no direction to check;
 # "planned": no chapter regenerates the claim yet.
-STATUSES = ("reproduced", "partly", "not reproduced", "shown", "planned")
+STATUSES = ("reproduced", "partly", "inconclusive", "not reproduced", "shown", "planned")
 SCALES = ("toy", "small", "paper")
 _PACKAGE = pathlib.Path(__file__).resolve().parents[1]   # src/hoi_tutorial
 _REPO_ROOT = _PACKAGE.parents[1]                          # the checkout (src layout), when there is one
-_FORMAT = 1
+_FORMAT = 2   # 2: a check is a verdict ("held", "inconclusive", "not held"), no longer a bool
 
 
 class LedgerError(RuntimeError):
@@ -44,8 +46,9 @@ class ClaimRecord:
     """One chapter run's result for one claim.
 
     key: the claim (:data:`hoi_tutorial.ledger.CLAIMS`). seed, scale: the chapter's parameters.
-    ours: what the chapter computed, in words and numbers. checks: ``((direction, held), ...)`` in the
-    order given. status: from the checks (:func:`status_of`). chapter: the notebook stem. chapter_digest,
+    ours: what the chapter computed, in words and numbers. checks: ``((direction, verdict), ...)`` in the
+    order given, each verdict one of :data:`hoi_tutorial.intervals.VERDICTS`. status: from the checks
+    (:func:`status_of`). chapter: the notebook stem. chapter_digest,
     library_digest: the code that made it (``None`` where the chapter file was not found).
     recorded_at: UTC time, ISO 8601.
     """
@@ -63,23 +66,48 @@ class ClaimRecord:
     @property
     def held(self) -> int:
         """How many of the checked directions held."""
-        return sum(1 for _, ok in self.checks if ok)
+        return sum(1 for _, verdict in self.checks if verdict == "held")
+
+    @property
+    def inconclusive(self) -> int:
+        """How many of the checked directions were inconclusive (their interval straddles the threshold)."""
+        return sum(1 for _, verdict in self.checks if verdict == "inconclusive")
 
     def status_text(self) -> str:
-        """The status with its count, e.g. ``"partly (2 of 3)"``."""
+        """The status with its counts, e.g. ``"partly (2 of 3)"`` or ``"partly (1 of 3; 1 inconclusive)"``."""
         if not self.checks:
             return self.status
-        return f"{self.status} ({self.held} of {len(self.checks)})"
+        text = f"{self.held} of {len(self.checks)}"
+        if self.inconclusive:
+            text += f"; {self.inconclusive} inconclusive"
+        return f"{self.status} ({text})"
 
 
-def status_of(checks: Optional[Mapping[str, bool]]) -> str:
-    """``"reproduced"`` when every checked direction held, ``"not reproduced"`` when none did, ``"partly"``
-    in between, and ``"shown"`` when nothing directional was checked (``None`` or empty)."""
+def verdict_of(value) -> str:
+    """A check's verdict: a computed bool is ``"held"`` or ``"not held"``; a verdict string (what
+    :meth:`hoi_tutorial.intervals.Interval.verdict` returns) is kept. Anything else is an error."""
+    if isinstance(value, (bool, np.bool_)):
+        return "held" if value else "not held"
+    if isinstance(value, str) and value in VERDICTS:
+        return value
+    raise TypeError(f"expected a computed bool or a verdict {VERDICTS} (Interval.verdict), got "
+                    f"{type(value).__name__} {value!r}")
+
+
+def status_of(checks: Optional[Mapping[str, object]]) -> str:
+    """The status of a record from its checks (each a bool or a verdict, :func:`verdict_of`).
+
+    ``"reproduced"`` when every checked direction held; ``"inconclusive"`` when every one was inconclusive;
+    ``"not reproduced"`` when none held and at least one did not; ``"partly"`` when some held and some did not
+    or were inconclusive; ``"shown"`` when nothing directional was checked (``None`` or empty)."""
     if not checks:
         return "shown"
-    held = sum(bool(v) for v in checks.values())
-    if held == len(checks):
+    verdicts = [verdict_of(v) for v in checks.values()]
+    held, inconclusive = verdicts.count("held"), verdicts.count("inconclusive")
+    if held == len(verdicts):
         return "reproduced"
+    if inconclusive == len(verdicts):
+        return "inconclusive"
     return "not reproduced" if held == 0 else "partly"
 
 
@@ -155,8 +183,9 @@ def record(key: str, *, ours: str, checks: Optional[Mapping[str, bool]] = None, 
     """Record what a chapter computed for claim ``key`` and return the record.
 
     ours: what was computed, with the counts behind any share (non-empty text).
-    checks: ``{direction in words: whether it held}``, each value a computed boolean; ``None`` for a claim
-    with no direction to check (a figure, an algorithm), whose status is then "shown".
+    checks: ``{direction in words: verdict}``, each value a computed boolean or, for a direction measured with
+    an interval, ``Interval.verdict(...)`` ("held", "inconclusive" or "not held"); ``None`` for a claim with no
+    direction to check (a figure, an algorithm), whose status is then "shown".
     seed, scale: the chapter's ``SEED`` and ``SCALE``.
     """
     found = claim(key)
@@ -168,14 +197,15 @@ def record(key: str, *, ours: str, checks: Optional[Mapping[str, bool]] = None, 
     _check_seed_scale(seed, scale)
     if checks is not None:
         if not isinstance(checks, Mapping):
-            raise TypeError(f"checks: expected a mapping {{direction: bool}}, got {type(checks).__name__}")
+            raise TypeError(f"checks: expected a mapping {{direction: verdict}}, got {type(checks).__name__}")
         for name, value in checks.items():
             if not isinstance(name, str) or not name.strip():
                 raise ValueError(f"checks: each direction needs a name in words, got {name!r}")
-            if not isinstance(value, (bool, np.bool_)):
-                raise TypeError(f"checks[{name!r}]: expected a computed bool, got {type(value).__name__} "
-                                f"{value!r}")
-    items = tuple((name, bool(value)) for name, value in (checks or {}).items())
+            try:
+                verdict_of(value)
+            except TypeError as error:
+                raise TypeError(f"checks[{name!r}]: {error}") from None
+    items = tuple((name, verdict_of(value)) for name, value in (checks or {}).items())
     result = ClaimRecord(key=key, seed=int(seed), scale=scale, ours=ours.strip(), checks=items,
                          status=status_of(dict(items)), chapter=found.chapter,
                          chapter_digest=chapter_digest(found.chapter), library_digest=library_digest(),
@@ -200,7 +230,7 @@ def load_record(key: str, seed: int, scale: str) -> Optional[ClaimRecord]:
     payload = json.loads(path.read_text(encoding="utf-8"))
     if payload.pop("format", None) != _FORMAT:
         return None
-    payload["checks"] = tuple((name, bool(ok)) for name, ok in payload["checks"])
+    payload["checks"] = tuple((name, verdict_of(verdict)) for name, verdict in payload["checks"])
     return ClaimRecord(**payload)
 
 
@@ -286,10 +316,13 @@ def chapter_summary(records: Sequence[ClaimRecord]):
     frame = pd.DataFrame([{
         "claim": f"{claim(r.key).paper} {claim(r.key).source}: {claim(r.key).statement}",
         "status": r.status_text(),
-        "checked": "; ".join(f"{name}: {'yes' if ok else 'no'}" for name, ok in r.checks) or "—",
+        "checked": "; ".join(f"{name}: {_VERDICT_WORD[verdict]}" for name, verdict in r.checks) or "—",
         "ours": r.ours,
     } for r in records])
     return frame.style.hide(axis="index").set_properties(**{"text-align": "left", "vertical-align": "top"})
+
+
+_VERDICT_WORD = {"held": "yes", "not held": "no", "inconclusive": "inconclusive"}
 
 
 def _cell(text: str) -> str:
@@ -314,7 +347,8 @@ def markdown_table(rows: Sequence[Mapping], paper: str, *, link_suffix: str = ".
         else:
             ours = f"seed {found.seed}: {found.ours}"
             if found.checks:
-                ours += " Checked: " + "; ".join(f"{name} ({'yes' if ok else 'no'})" for name, ok in found.checks) + "."
+                ours += " Checked: " + "; ".join(f"{name} ({_VERDICT_WORD[verdict]})"
+                                                 for name, verdict in found.checks) + "."
             status = found.status_text()
             for other_seed, other in sorted(row["other_seeds"].items()):
                 status += f"; seed {other_seed}: {other.status_text()}"
