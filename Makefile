@@ -24,7 +24,12 @@ ifdef HOI_CACHE
 export HOI_CACHE
 endif
 
-.PHONY: venv test unit-test book bench colab-check clean strip
+# Hypothesis draws the same examples on every run (tests/conftest.py's "ci" profile), so `make test` passes or
+# fails as CI does; `make test-fresh` draws new examples to look for counterexamples.
+HYPOTHESIS_PROFILE ?= ci
+export HYPOTHESIS_PROFILE
+
+.PHONY: venv test unit-test unit-test-other-kernels test-fresh book bench colab-check clean strip
 
 venv: $(STAMP)
 
@@ -50,7 +55,19 @@ test: venv
 # The library's tests alone, without executing the chapters (CI executes each chapter once, in the
 # book build, which fails on any error or failed assert).
 unit-test: venv
+	@PATH="$(VENV_BIN):$$PATH" $(PY) scripts/numeric_env.py --show
 	@PATH="$(VENV_BIN):$$PATH" $(PY) -m pytest tests
+
+# The library's tests again, with other BLAS and vector kernels than this CPU's own (scripts/numeric_env.py):
+# what another machine does to the last bits. A test that depends on them fails here.
+unit-test-other-kernels: venv
+	@eval "$$($(PY) scripts/numeric_env.py --other)"; \
+	PATH="$(VENV_BIN):$$PATH" $(PY) scripts/numeric_env.py --show && PATH="$(VENV_BIN):$$PATH" $(PY) -m pytest tests
+
+# The library's tests with fresh hypothesis examples (a new draw every run), to look for counterexamples; a
+# failure prints the example to pin down with @example.
+test-fresh: venv
+	@PATH="$(VENV_BIN):$$PATH" HYPOTHESIS_PROFILE=fast $(PY) -m pytest tests
 
 # MPLBACKEND is cleared so that the kernels draw figures inline into the pages.
 # A chapter that raises fails the build (execute.raise_on_error in _config.yml).

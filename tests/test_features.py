@@ -42,7 +42,7 @@ def test_canonicalize_faces_plus_y_at_the_origin(heading, x, y):
     assert abs(float(F.body_heading(motion.joints[0])) - heading) < 2e-3 or abs(abs(heading) - math.pi) < 2e-3
     canon = F.canonicalize(motion)
     assert abs(float(F.body_heading(canon.joints[0]))) < 1e-5
-    torch.testing.assert_close(canon.root_position[0, :2], torch.zeros(2), atol=1e-5, rtol=0)
+    torch.testing.assert_close(canon.root_position[0, :2], torch.zeros(2), atol=1e-5, rtol=1e-5)
     assert float(canon.root_position[0, 2]) == pytest.approx(float(root[2]), abs=1e-6)
     # The pelvis's own heading follows (the hips' facing is within a milliradian of it).
     assert abs(float(yaw_of_matrix(canon.global_rotations[0, 0]))) < 2e-3
@@ -54,7 +54,7 @@ def test_canonical_transform_accepts_a_pose_pair_and_a_later_frame():
     assert translation.shape == (3,) and float(translation[2]) == 0.0
     moved = F.canonicalize(motion, frame=10)
     assert abs(float(F.body_heading(moved.joints[10]))) < 1e-5
-    torch.testing.assert_close(moved.joints[10, 0, :2], torch.zeros(2), atol=1e-5, rtol=0)
+    torch.testing.assert_close(moved.joints[10, 0, :2], torch.zeros(2), atol=1e-5, rtol=1e-5)
     yaw_motion, translation_motion = F.canonical_transform(motion, 10)
     assert yaw == pytest.approx(yaw_motion) and torch.equal(translation, translation_motion)
     yaw_numpy, _ = F.canonical_transform((motion.global_rotations.numpy(), motion.joints.numpy()), frame=10)
@@ -75,13 +75,13 @@ def test_nifty_state_round_trip(seed):
     back = F.motion_from_nifty_state(state, betas=motion.betas)
     canon = F.canonicalize(motion)
     assert float((back.joints - canon.joints).abs().max()) < 1e-4
-    torch.testing.assert_close(back.local_rotations, canon.local_rotations, atol=1e-5, rtol=0)
+    torch.testing.assert_close(back.local_rotations, canon.local_rotations, atol=1e-5, rtol=1e-5)
     # Without integration the root comes straight from t^p.
     direct = F.motion_from_nifty_state(state, betas=motion.betas, integrate_root=False)
     assert float((direct.root_position - canon.root_position).abs().max()) < 1e-6
     # The state starts in the canonical frame: pelvis on the z axis.
     parts = F.split_nifty_state(state)
-    torch.testing.assert_close(parts["root_position"][0, :2], torch.zeros(2), atol=1e-5, rtol=0)
+    torch.testing.assert_close(parts["root_position"][0, :2], torch.zeros(2), atol=1e-5, rtol=1e-5)
 
 
 def test_root_integration_uses_the_velocity():
@@ -92,7 +92,7 @@ def test_root_integration_uses_the_velocity():
     original = F.motion_from_nifty_state(state)
     shift = back.root_position - original.root_position
     expected = torch.arange(20)[:, None] / 30.0 * torch.tensor([0.3, -0.6, 0.0])
-    torch.testing.assert_close(shift, expected, atol=1e-5, rtol=0)
+    torch.testing.assert_close(shift, expected, atol=1e-5, rtol=1e-5)
 
 
 def test_split_and_decode_are_batched_and_differentiable():
@@ -115,9 +115,9 @@ def test_velocities_of_a_constant_drift():
     velocity = torch.tensor([0.6, -0.3, 0.0])
     motion = Motion(local.expand(T, -1, -1, -1), root + torch.arange(T)[:, None] / 30.0 * velocity)
     parts = F.split_nifty_state(F.nifty_pose_state(motion, canonical=False))
-    torch.testing.assert_close(parts["root_velocity"], velocity.expand(T, 3), atol=1e-4, rtol=0)
-    torch.testing.assert_close(parts["joint_velocities"], velocity.expand(T, 22, 3), atol=1e-4, rtol=0)
-    torch.testing.assert_close(parts["joint_angular_velocities"], torch.zeros(T, 22, 3), atol=1e-5, rtol=0)
+    torch.testing.assert_close(parts["root_velocity"], velocity.expand(T, 3), atol=1e-4, rtol=1e-5)
+    torch.testing.assert_close(parts["joint_velocities"], velocity.expand(T, 22, 3), atol=1e-4, rtol=1e-5)
+    torch.testing.assert_close(parts["joint_angular_velocities"], torch.zeros(T, 22, 3), atol=1e-5, rtol=1e-5)
 
 
 @given(st.floats(-4.0, 4.0), st.tuples(*[st.floats(-1.0, 1.0)] * 3).filter(lambda v: np.linalg.norm(v) > 0.2))
@@ -131,8 +131,8 @@ def test_angular_velocity_of_a_constant_spin(rate, axis):
     motion = Motion(local, root.expand(T, 3))
     omega = F.split_nifty_state(F.nifty_pose_state(motion, canonical=False))["joint_angular_velocities"]
     # A rigid spin of the whole body: every joint turns at the same rate about the same axis.
-    torch.testing.assert_close(omega, (rate * axis).expand(T, 22, 3), atol=2e-4, rtol=0)
-    torch.testing.assert_close(F.angular_velocity(spin, fps), (rate * axis).expand(T, 3), atol=2e-4, rtol=0)
+    torch.testing.assert_close(omega, (rate * axis).expand(T, 22, 3), atol=2e-4, rtol=1e-5)
+    torch.testing.assert_close(F.angular_velocity(spin, fps), (rate * axis).expand(T, 3), atol=2e-4, rtol=1e-5)
 
 
 def test_samp_layout_and_action_mapping():
@@ -165,11 +165,11 @@ def test_samp_state_shapes_and_frames():
     traj = parts["trajectory_positions"].reshape(T, 7, 2)
     dirs = parts["trajectory_directions"].reshape(T, 7, 2)
     # The middle sample is the current root: the origin of its own frame, facing +Y.
-    torch.testing.assert_close(traj[:, 3], torch.zeros(T, 2), atol=1e-5, rtol=0)
-    torch.testing.assert_close(dirs[:, 3], torch.tensor([0.0, 1.0]).expand(T, 2), atol=1e-5, rtol=0)
+    torch.testing.assert_close(traj[:, 3], torch.zeros(T, 2), atol=1e-5, rtol=1e-5)
+    torch.testing.assert_close(dirs[:, 3], torch.tensor([0.0, 1.0]).expand(T, 2), atol=1e-5, rtol=1e-5)
     # Pelvis at the root frame's origin (height kept).
     jp = parts["joint_positions"].reshape(T, 22, 3)
-    torch.testing.assert_close(jp[:, 0, :2], torch.zeros(T, 2), atol=1e-5, rtol=0)
+    torch.testing.assert_close(jp[:, 0, :2], torch.zeros(T, 2), atol=1e-5, rtol=1e-5)
     actions = parts["trajectory_actions"].reshape(T, 7, 5)
     assert torch.all(actions.sum(-1) == 1)
     assert actions[0, 3].argmax() == F.SAMP_ACTIONS.index("walk") and actions[-1, 3].argmax() == F.SAMP_ACTIONS.index("sit")
@@ -179,7 +179,7 @@ def test_samp_state_shapes_and_frames():
     # The goal seen from each sample's frame has its true distance.
     goal = parts["goal_positions"].reshape(T, 7, 3)
     truth = torch.tensor([2.0, 0.0, 0.45]) - F.root_frame(motion.joints)[0]
-    torch.testing.assert_close(goal[:, 3].norm(dim=-1), truth.norm(dim=-1), atol=1e-5, rtol=0)
+    torch.testing.assert_close(goal[:, 3].norm(dim=-1), truth.norm(dim=-1), atol=1e-5, rtol=1e-5)
 
 
 def test_samp_state_takes_a_goal_action_per_frame():
@@ -203,7 +203,7 @@ def test_samp_state_is_invariant_to_moving_the_clip():
     rot = rotation_about_z(torch.tensor(1.3))
     _, flat = F.samp_pose_state(motion, goal, direction, action_labels="walk")
     _, flat_moved = F.samp_pose_state(moved, rot @ goal + torch.tensor([0.5, -0.7, 0.0]), rot @ direction, action_labels="walk")
-    torch.testing.assert_close(flat_moved, flat, atol=1e-4, rtol=0)
+    torch.testing.assert_close(flat_moved, flat, atol=1e-4, rtol=1e-5)
 
 
 def test_samp_state_without_goal_or_labels_has_zero_goal_parts():
@@ -223,5 +223,5 @@ def test_samp_fd_features():
     # Default goal: the clip's final root, so the last frame sits at the goal facing +Y.
     goal_traj = features[:, F.SAMP_FD_LAYOUT["goal_trajectory_positions"]].reshape(25, 7, 2)
     goal_dirs = features[:, F.SAMP_FD_LAYOUT["goal_trajectory_directions"]].reshape(25, 7, 2)
-    torch.testing.assert_close(goal_traj[-1, 3], torch.zeros(2), atol=1e-5, rtol=0)
-    torch.testing.assert_close(goal_dirs[-1, 3], torch.tensor([0.0, 1.0]), atol=1e-5, rtol=0)
+    torch.testing.assert_close(goal_traj[-1, 3], torch.zeros(2), atol=1e-5, rtol=1e-5)
+    torch.testing.assert_close(goal_dirs[-1, 3], torch.tensor([0.0, 1.0]), atol=1e-5, rtol=1e-5)

@@ -27,7 +27,7 @@ def test_fk_preserves_bone_lengths(seed):
     _, pos = forward_kinematics(local, root, offsets)
     parents = list(S.PARENTS[1:])
     lengths = (pos[:, 1:] - pos[:, parents]).norm(dim=-1)
-    torch.testing.assert_close(lengths, offsets[:, 1:].norm(dim=-1), atol=1e-10, rtol=0)
+    torch.testing.assert_close(lengths, offsets[:, 1:].norm(dim=-1), atol=1e-10, rtol=1e-12)
     torch.testing.assert_close(pos[:, 0], root)
 
 
@@ -38,7 +38,7 @@ def test_identity_pose_is_the_rest_pose(betas):
     height = S.rest_pelvis_height(betas)
     identity = torch.eye(3, dtype=torch.float64).repeat(S.NUM_JOINTS, 1, 1)
     glob, pos = forward_kinematics(identity, torch.stack([height * 0, height * 0, height]), S.bone_offsets(betas))
-    torch.testing.assert_close(pos, rest, atol=1e-12, rtol=0)
+    torch.testing.assert_close(pos, rest, atol=1e-12, rtol=1e-12)
     torch.testing.assert_close(glob, identity)
     # Standing straight with flat feet: the foot joints sit FOOT_JOINT_HEIGHT above the ground.
     assert abs(float(rest[S.joint_index("right_foot"), 2]) - S.FOOT_JOINT_HEIGHT) < 1e-9
@@ -49,7 +49,7 @@ def test_identity_pose_is_the_rest_pose(betas):
 def test_global_to_local_inverts_fk(seed):
     local, root, betas = _random_pose(seed)
     glob, _ = forward_kinematics(local, root, S.bone_offsets(betas))
-    torch.testing.assert_close(global_to_local_rotations(glob), local, atol=1e-10, rtol=0)
+    torch.testing.assert_close(global_to_local_rotations(glob), local, atol=1e-10, rtol=1e-12)
 
 
 def _limb_setup(seed, limb):
@@ -75,8 +75,8 @@ def test_two_bone_ik_reaches_reachable_targets(seed, limb):
     _, new_pos = forward_kinematics(new_local, root, offsets)
     assert float((new_pos[:, end] - target).norm(dim=-1).max()) < 1e-4
     # Bone lengths kept, and only the limb's two joints changed.
-    torch.testing.assert_close((new_pos[:, middle] - new_pos[:, upper]).norm(dim=-1), l1, atol=1e-9, rtol=0)
-    torch.testing.assert_close((new_pos[:, end] - new_pos[:, middle]).norm(dim=-1), l2, atol=1e-9, rtol=0)
+    torch.testing.assert_close((new_pos[:, middle] - new_pos[:, upper]).norm(dim=-1), l1, atol=1e-9, rtol=1e-12)
+    torch.testing.assert_close((new_pos[:, end] - new_pos[:, middle]).norm(dim=-1), l2, atol=1e-9, rtol=1e-12)
     others = [j for j in range(S.NUM_JOINTS) if j not in (upper, middle)]
     torch.testing.assert_close(new_local[:, others], local[:, others])
 
@@ -93,7 +93,7 @@ def test_two_bone_ik_points_at_unreachable_targets(seed, limb):
     cos = (torch.nn.functional.normalize(reach, dim=-1) * direction).sum(-1)
     assert float(cos.min()) > 1 - 1e-6
     # Fully stretched (up to the solver's small margin).
-    torch.testing.assert_close(reach.norm(dim=-1), l1 + l2, atol=1e-3, rtol=0)
+    torch.testing.assert_close(reach.norm(dim=-1), l1 + l2, atol=1e-3, rtol=1e-5)
 
 
 @pytest.mark.parametrize("limb, pole", [("right_leg", (0.0, 1.0, 0.0)), ("left_leg", (0.0, 1.0, 0.0)),

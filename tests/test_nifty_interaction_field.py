@@ -75,7 +75,7 @@ def test_training_pairs_target_the_ground_truth_minus_the_prediction(sit_tensors
         record = records[int(pairs.sequence[row])]
         world = torch.cat([record.motion.joints[-1], record.motion.root_position[-1:]]).double().numpy()
         expected = torch.as_tensor(record.obj.to_canonical(world), dtype=torch.float32)
-        torch.testing.assert_close(pairs.targets[row, 0], expected, atol=1e-4, rtol=0)
+        torch.testing.assert_close(pairs.targets[row, 0], expected, atol=1e-4, rtol=1e-5)
 
 
 def test_training_pairs_come_from_the_models_own_predictions(sit_tensors):
@@ -133,14 +133,14 @@ def test_simplified_pose_places_the_pose_where_the_integrated_root_ends(sit_tens
     states = tensors.states[:2]
     # Data: the integrated root and t^p agree, so the simplified pose is j^p and t^p as they are.
     pose = simplified_pose(states, 1)[:, 0]
-    torch.testing.assert_close(pose[:, -1], states[:, -1, NIFTY_STATE_LAYOUT["root_position"]], atol=1e-4, rtol=0)
+    torch.testing.assert_close(pose[:, -1], states[:, -1, NIFTY_STATE_LAYOUT["root_position"]], atol=1e-4, rtol=1e-5)
     # Velocities that walk 1 m further along +x than t^p says: the pose moves with the integrated root.
     drifted = states.clone()
     drifted[:, :-1, NIFTY_STATE_LAYOUT["root_velocity"].start] += 30.0 / (FRAMES - 1)  # 1 m over the clip at 30 fps
     moved = simplified_pose(drifted, 1)[:, 0]
     _, root = nifty_state_to_pose(drifted)
-    torch.testing.assert_close(moved[:, -1, :2], root[:, -1, :2].float(), atol=1e-4, rtol=0)
-    torch.testing.assert_close(moved - pose, torch.tensor([1.0, 0.0, 0.0]).expand_as(pose), atol=1e-4, rtol=0)
+    torch.testing.assert_close(moved[:, -1, :2], root[:, -1, :2].float(), atol=1e-4, rtol=1e-5)
+    torch.testing.assert_close(moved - pose, torch.tensor([1.0, 0.0, 0.0]).expand_as(pose), atol=1e-4, rtol=1e-5)
     # Padding frames hold still: with every frame after the first marked as padding, only the first step counts.
     valid = torch.zeros(2, FRAMES, dtype=torch.bool)
     valid[:, 0] = True
@@ -193,7 +193,7 @@ def test_nearest_anchor_objective_is_zero_at_an_anchor(sit_tensors):
     assert values.max() < 1e-6
     # Their training poses in the field's object frame are the anchors themselves.
     poses, _ = to_field_frame(simplified_pose(tensors.states), tensors.points, tensors.object_pose, "object")
-    torch.testing.assert_close(poses[:, 0], anchors, atol=1e-4, rtol=0)
+    torch.testing.assert_close(poses[:, 0], anchors, atol=1e-4, rtol=1e-5)
     shifted = tensors.states.clone()
     shifted[..., NIFTY_STATE_LAYOUT["joint_positions"]] += 0.1
     assert objective(shifted).min() > 0.01

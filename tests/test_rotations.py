@@ -21,25 +21,25 @@ batches = st.lists(axis_angles, min_size=1, max_size=6).map(lambda vs: torch.ten
 @given(batches)
 def test_axis_angle_matrix_round_trip(aa):
     m = R.axis_angle_to_matrix(aa)
-    torch.testing.assert_close(R.matrix_to_axis_angle(m), aa, atol=1e-6, rtol=0)
+    torch.testing.assert_close(R.matrix_to_axis_angle(m), aa, atol=1e-6, rtol=1e-5)
 
 
 @given(batches)
 def test_matrices_are_orthonormal_with_unit_determinant(aa):
     m = R.axis_angle_to_matrix(aa)
     eye = torch.eye(3, dtype=m.dtype).expand_as(m)
-    torch.testing.assert_close(m @ m.transpose(-1, -2), eye, atol=1e-10, rtol=0)
-    torch.testing.assert_close(torch.linalg.det(m), torch.ones(m.shape[0], dtype=m.dtype), atol=1e-10, rtol=0)
+    torch.testing.assert_close(m @ m.transpose(-1, -2), eye, atol=1e-10, rtol=1e-12)
+    torch.testing.assert_close(torch.linalg.det(m), torch.ones(m.shape[0], dtype=m.dtype), atol=1e-10, rtol=1e-12)
 
 
 @given(batches)
 def test_quaternion_round_trips(aa):
     q = R.axis_angle_to_quaternion(aa)
-    torch.testing.assert_close(q.norm(dim=-1), torch.ones(len(aa), dtype=aa.dtype), atol=1e-12, rtol=0)
-    torch.testing.assert_close(R.quaternion_to_axis_angle(q), aa, atol=1e-6, rtol=0)
+    torch.testing.assert_close(q.norm(dim=-1), torch.ones(len(aa), dtype=aa.dtype), atol=1e-12, rtol=1e-12)
+    torch.testing.assert_close(R.quaternion_to_axis_angle(q), aa, atol=1e-6, rtol=1e-5)
     m = R.quaternion_to_matrix(q)
-    torch.testing.assert_close(m, R.axis_angle_to_matrix(aa), atol=1e-10, rtol=0)
-    torch.testing.assert_close(R.quaternion_to_matrix(R.matrix_to_quaternion(m)), m, atol=1e-10, rtol=0)
+    torch.testing.assert_close(m, R.axis_angle_to_matrix(aa), atol=1e-10, rtol=1e-12)
+    torch.testing.assert_close(R.quaternion_to_matrix(R.matrix_to_quaternion(m)), m, atol=1e-10, rtol=1e-12)
     assert torch.all(R.matrix_to_quaternion(m)[:, 0] >= 0)
 
 
@@ -49,7 +49,7 @@ def test_rotation_6d_round_trip(aa):
     six = R.matrix_to_rotation_6d(m)
     assert six.shape == (len(aa), 6)
     torch.testing.assert_close(six[:, :3], m[:, :, 0])
-    torch.testing.assert_close(R.rotation_6d_to_matrix(six), m, atol=1e-10, rtol=0)
+    torch.testing.assert_close(R.rotation_6d_to_matrix(six), m, atol=1e-10, rtol=1e-12)
 
 
 @given(batches, st.floats(0.2, 5.0))
@@ -58,7 +58,7 @@ def test_rotation_6d_gram_schmidt_accepts_unnormalised_input(aa, scale):
     six = R.matrix_to_rotation_6d(m)
     # Scale the first column and add some of it to the second: Gram-Schmidt recovers m.
     skewed = torch.cat([scale * six[:, :3], six[:, 3:] + 0.3 * six[:, :3]], dim=-1)
-    torch.testing.assert_close(R.rotation_6d_to_matrix(skewed), m, atol=1e-10, rtol=0)
+    torch.testing.assert_close(R.rotation_6d_to_matrix(skewed), m, atol=1e-10, rtol=1e-12)
 
 
 @given(batches)
@@ -92,16 +92,16 @@ def test_quaternion_multiply_matches_matrix_product(aa1, aa2):
     q1, q2 = R.axis_angle_to_quaternion(aa1[:n]), R.axis_angle_to_quaternion(aa2[:n])
     product = R.quaternion_to_matrix(R.quaternion_multiply(q1, q2))
     expected = R.quaternion_to_matrix(q1) @ R.quaternion_to_matrix(q2)
-    torch.testing.assert_close(product, expected, atol=1e-10, rtol=0)
+    torch.testing.assert_close(product, expected, atol=1e-10, rtol=1e-12)
     identity = R.quaternion_multiply(q1, R.quaternion_conjugate(q1))
-    torch.testing.assert_close(identity, torch.tensor([1.0, 0, 0, 0], dtype=q1.dtype).expand_as(q1), atol=1e-10, rtol=0)
+    torch.testing.assert_close(identity, torch.tensor([1.0, 0, 0, 0], dtype=q1.dtype).expand_as(q1), atol=1e-10, rtol=1e-12)
 
 
 @given(st.lists(st.floats(-math.pi + 1e-6, math.pi - 1e-6), min_size=1, max_size=8))
 def test_rotation_about_z_and_yaw_are_inverse(yaws):
     yaw = torch.tensor(yaws, dtype=torch.float64)
     m = R.rotation_about_z(yaw)
-    torch.testing.assert_close(R.yaw_of_matrix(m), yaw, atol=1e-9, rtol=0)
+    torch.testing.assert_close(R.yaw_of_matrix(m), yaw, atol=1e-9, rtol=1e-12)
     # A positive yaw turns the forward axis +Y towards -X (right-handed about +Z).
     forward = m @ torch.tensor([0.0, 1.0, 0.0], dtype=torch.float64)
     torch.testing.assert_close(forward[..., 0], -torch.sin(yaw))
@@ -110,7 +110,7 @@ def test_rotation_about_z_and_yaw_are_inverse(yaws):
 def test_geodesic_angle_matches_rotation_angle():
     aa = torch.tensor([[0.0, 0.0, 0.7], [0.3, -0.2, 0.1]], dtype=torch.float64)
     angle = R.geodesic_angle(torch.eye(3, dtype=torch.float64).expand(2, 3, 3), R.axis_angle_to_matrix(aa))
-    torch.testing.assert_close(angle, aa.norm(dim=-1), atol=1e-7, rtol=0)
+    torch.testing.assert_close(angle, aa.norm(dim=-1), atol=1e-7, rtol=1e-5)
 
 
 def test_gradients_are_finite_at_zero_rotation():

@@ -63,7 +63,7 @@ def test_the_original_clip_does_not_fit_the_new_object_and_the_same_object_chang
         pelvis = np.flatnonzero(np.asarray(motion.contacts)[:, 0])
         worst = max(worst, float(np.abs(new.sdf(J[pelvis, 0]) - obj.sdf(J[pelvis, 0])).max()))
         same = aug.augment_clip(motion, obj, obj)
-        torch.testing.assert_close(same.joints, motion.joints, atol=1e-4, rtol=0)
+        torch.testing.assert_close(same.joints, motion.joints, atol=1e-4, rtol=1e-5)
     assert worst > 0.02  # without augmentation the seated pelvis floats above or sinks into a new seat
 
 
