@@ -4,7 +4,7 @@ import pytest
 import torch
 from scipy import stats
 
-from hoi_tutorial.intervals import VERDICTS, Interval, paired_difference, share_interval
+from hoi_tutorial.intervals import VERDICTS, Interval, bootstrap_interval, paired_difference, share_interval
 
 
 # ----------------------------------------------------------------------------- the paired bootstrap
@@ -80,7 +80,7 @@ def test_booleans_torch_and_determinism():
 
 @pytest.mark.parametrize("a, b, match", [
     (np.ones(5), np.ones(4), "the same length"),
-    (np.ones(1), np.ones(1), "at least 2"),
+    (np.ones(1), np.ones(1), "at least 2 test cases"),
     (np.array([1.0, np.nan]), np.ones(2), "finite"),
     (np.ones((2, 3)), np.ones((2, 3)), "1-D"),
     (np.array(["a", "b"]), np.ones(2), "numbers or booleans"),
@@ -99,6 +99,23 @@ def test_paired_bootstrap_argument_errors():
         paired_difference(np.ones(3), np.ones(3), resamples=10)
     with pytest.raises(ValueError, match="reduce the last axis"):
         paired_difference(np.ones(3), np.ones(3), statistic=lambda x, axis: x)
+
+
+def test_one_sample_bootstrap_of_a_mean_and_a_median():
+    rng = np.random.default_rng(6)
+    x = rng.normal(1.5, 0.5, 500)
+    found = bootstrap_interval(x, resamples=8000, seed=2)
+    half = 1.96 * x.std(ddof=1) / np.sqrt(len(x))
+    assert found.low == pytest.approx(x.mean() - half, abs=0.15 * half)
+    assert found.high == pytest.approx(x.mean() + half, abs=0.15 * half)
+    assert found.method == "bootstrap (mean)" and found.verdict("above", 1.4) == "held"
+    # the same numbers as a paired difference with nothing subtracted
+    paired = paired_difference(x, np.zeros_like(x), resamples=8000, seed=2)
+    assert (paired.low, paired.high, paired.estimate) == (found.low, found.high, found.estimate)
+    median = bootstrap_interval(x, statistic="median")
+    assert median.estimate == np.median(x) and median.low < np.median(x) < median.high
+    with pytest.raises(ValueError, match="at least 2"):
+        bootstrap_interval([1.0])
 
 
 # ----------------------------------------------------------------------------- shares

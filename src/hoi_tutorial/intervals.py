@@ -6,6 +6,7 @@ another seed), moves such a number; whether a direction *holds* is therefore rea
 
 * :func:`paired_difference` — a paired bootstrap interval for ``statistic(a) - statistic(b)`` where ``a[i]`` and
   ``b[i]`` are two methods scored on the same test case ``i`` (resampling the cases, never the methods apart);
+* :func:`bootstrap_interval` — the same bootstrap for one method's statistic alone (a median against a threshold);
 * :func:`share_interval` — the Wilson score interval (or Clopper–Pearson's exact one) for ``k`` successes in ``n``;
 * :meth:`Interval.verdict` — ``"held"`` when the interval lies wholly on the claimed side of a threshold,
   ``"not held"`` when it lies wholly on the other side, ``"inconclusive"`` when it straddles the threshold.
@@ -26,7 +27,7 @@ import numpy as np
 import torch
 from scipy import stats
 
-__all__ = ["Interval", "VERDICTS", "paired_difference", "share_interval"]
+__all__ = ["Interval", "VERDICTS", "paired_difference", "bootstrap_interval", "share_interval"]
 
 # What a checked direction can come to, in the ledger's words.
 VERDICTS = ("held", "inconclusive", "not held")
@@ -124,12 +125,29 @@ def paired_difference(a, b, *, statistic: Union[str, Callable] = "mean", level: 
         ``R`` resampled differences (each resample draws ``N`` case indices with replacement, shared by
         ``a`` and ``b``).
     """
-    a, b = _as_1d(a, "a"), _as_1d(b, "b")
+    return _bootstrap(a, b, statistic, level, resamples, seed, "paired bootstrap")
+
+
+def bootstrap_interval(x, *, statistic: Union[str, Callable] = "mean", level: float = 0.95, resamples: int = 4000,
+                       seed: int = 0) -> Interval:
+    """Bootstrap interval for ``statistic(x)`` of one method's scores over its test cases.
+
+    The same percentile bootstrap as :func:`paired_difference`, with nothing subtracted: for a claim about one
+    method against a fixed threshold ("the guided walks' median speed lies below the data's 5 % quantile").
+    Arguments as there; ``x``: ``(N,)``.
+    """
+    x = _as_1d(x, "x")
+    return _bootstrap(x, None, statistic, level, resamples, seed, "bootstrap")
+
+
+def _bootstrap(a, b, statistic, level, resamples, seed, kind) -> Interval:
+    a = _as_1d(a, "a")
+    b = np.zeros_like(a) if b is None else _as_1d(b, "b")   # one sample: subtract nothing
     if a.shape != b.shape:
         raise ValueError(f"a, b: expected one score per test case for both methods (the same length), got "
                          f"{a.shape[0]} and {b.shape[0]}")
     if a.shape[0] < 2:
-        raise ValueError(f"a, b: expected at least 2 paired test cases, got {a.shape[0]}")
+        raise ValueError(f"expected at least 2 test cases, got {a.shape[0]}")
     _check_level(level)
     if not isinstance(resamples, int) or resamples < 100:
         raise ValueError(f"resamples: expected an int of at least 100, got {resamples!r}")
@@ -155,8 +173,7 @@ def paired_difference(a, b, *, statistic: Union[str, Callable] = "mean", level: 
     resampled = difference(a[index], b[index])   # the cases resampled together: the pairs stay pairs
     tail = 100 * (1 - level) / 2
     low, high = np.percentile(resampled, [tail, 100 - tail])
-    return Interval(estimate, float(low), float(high), float(level), int(a.shape[0]),
-                    f"paired bootstrap ({name})")
+    return Interval(estimate, float(low), float(high), float(level), int(a.shape[0]), f"{kind} ({name})")
 
 
 def share_interval(successes, trials: int | None = None, *, level: float = 0.95,
