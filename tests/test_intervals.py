@@ -118,6 +118,32 @@ def test_one_sample_bootstrap_of_a_mean_and_a_median():
         bootstrap_interval([1.0])
 
 
+def test_block_bootstrap_widens_the_interval_of_a_correlated_series():
+    # An AR(1) series with phi = 0.9: the variance of its mean is (1 + phi) / (1 - phi) = 19 times that of as many
+    # independent values, so the honest interval is about sqrt(19) = 4.4 times wider than the one that resamples
+    # single values. Blocks of 100 values recover most of it.
+    rng = np.random.default_rng(8)
+    phi, n = 0.9, 4000
+    x = np.zeros(n)
+    for t in range(1, n):
+        x[t] = phi * x[t - 1] + rng.normal()
+    single = bootstrap_interval(x, seed=1)
+    blocks = bootstrap_interval(x, seed=1, block=100)
+    ratio = (blocks.high - blocks.low) / (single.high - single.low)
+    assert 3.0 < ratio < 5.5, ratio
+    assert blocks.estimate == single.estimate and blocks.method == "bootstrap in blocks of 100 (mean)"
+    # independent values: blocks change little
+    y = rng.normal(size=n)
+    wide = bootstrap_interval(y, seed=1, block=50)
+    narrow = bootstrap_interval(y, seed=1)
+    assert 0.8 < (wide.high - wide.low) / (narrow.high - narrow.low) < 1.25
+    paired = paired_difference(x + 1.0, x, block=100)   # a constant shift stays exact, in blocks too
+    assert paired.low == pytest.approx(1.0) and paired.high == pytest.approx(1.0)
+    for bad in (0, n + 1, 2.5, True):
+        with pytest.raises(ValueError, match="block"):
+            bootstrap_interval(x, block=bad)
+
+
 # ----------------------------------------------------------------------------- shares
 
 

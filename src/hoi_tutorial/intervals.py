@@ -108,7 +108,7 @@ def _check_level(level: float) -> None:
 
 
 def paired_difference(a, b, *, statistic: Union[str, Callable] = "mean", level: float = 0.95,
-                      resamples: int = 4000, seed: int = 0) -> Interval:
+                      resamples: int = 4000, seed: int = 0, block: int = 1) -> Interval:
     """Paired bootstrap interval for ``statistic(a) - statistic(b)`` over the same test cases.
 
     Args:
@@ -119,17 +119,21 @@ def paired_difference(a, b, *, statistic: Union[str, Callable] = "mean", level: 
             medians), or a function ``f(values) -> (R,)`` reducing the last axis of an ``(R, N)`` array.
         level: the confidence level. resamples: bootstrap resamples ``R``. seed: the resampling's seed (the
             interval is a deterministic function of the data and the seed).
+        block: ``1`` when the cases are independent (scenes, starts, clips). For the frames of one time series,
+            whose errors are correlated from frame to frame, the length ``L`` of the blocks of consecutive
+            cases that are resampled together (the moving-block bootstrap, Künsch 1989): about the time over
+            which the errors stay correlated. Resampling single frames there would make the interval too narrow.
 
     Returns:
         :class:`Interval` with the estimate on the data as measured and the percentile interval of the
         ``R`` resampled differences (each resample draws ``N`` case indices with replacement, shared by
-        ``a`` and ``b``).
+        ``a`` and ``b``; in blocks of ``L`` consecutive cases when ``block = L``).
     """
-    return _bootstrap(a, b, statistic, level, resamples, seed, "paired bootstrap")
+    return _bootstrap(a, b, statistic, level, resamples, seed, "paired bootstrap", block)
 
 
 def bootstrap_interval(x, *, statistic: Union[str, Callable] = "mean", level: float = 0.95, resamples: int = 4000,
-                       seed: int = 0) -> Interval:
+                       seed: int = 0, block: int = 1) -> Interval:
     """Bootstrap interval for ``statistic(x)`` of one method's scores over its test cases.
 
     The same percentile bootstrap as :func:`paired_difference`, with nothing subtracted: for a claim about one
@@ -137,10 +141,19 @@ def bootstrap_interval(x, *, statistic: Union[str, Callable] = "mean", level: fl
     Arguments as there; ``x``: ``(N,)``.
     """
     x = _as_1d(x, "x")
-    return _bootstrap(x, None, statistic, level, resamples, seed, "bootstrap")
+    return _bootstrap(x, None, statistic, level, resamples, seed, "bootstrap", block)
 
 
-def _bootstrap(a, b, statistic, level, resamples, seed, kind) -> Interval:
+def _resampled_indices(n: int, resamples: int, block: int, rng: np.random.Generator) -> np.ndarray:
+    """``(resamples, n)`` case indices: drawn one by one, or as blocks of ``block`` consecutive cases whose starts
+    are drawn uniformly from ``0 .. n - block`` (the moving-block bootstrap), cut to ``n``."""
+    if block == 1:
+        return rng.integers(0, n, size=(resamples, n))
+    starts = rng.integers(0, n - block + 1, size=(resamples, -(-n // block)))
+    return (starts[..., None] + np.arange(block)).reshape(resamples, -1)[:, :n]
+
+
+def _bootstrap(a, b, statistic, level, resamples, seed, kind, block=1) -> Interval:
     a = _as_1d(a, "a")
     b = np.zeros_like(a) if b is None else _as_1d(b, "b")   # one sample: subtract nothing
     if a.shape != b.shape:
@@ -151,6 +164,8 @@ def _bootstrap(a, b, statistic, level, resamples, seed, kind) -> Interval:
     _check_level(level)
     if not isinstance(resamples, int) or resamples < 100:
         raise ValueError(f"resamples: expected an int of at least 100, got {resamples!r}")
+    if isinstance(block, (bool, np.bool_)) or not isinstance(block, (int, np.integer)) or not 1 <= block <= a.shape[0]:
+        raise ValueError(f"block: expected an int from 1 to the number of cases ({a.shape[0]}), got {block!r}")
     if isinstance(statistic, str):
         if statistic not in _STATISTICS:
             raise ValueError(f"statistic: expected one of {_STATISTICS} or a function, got {statistic!r}")
@@ -169,10 +184,11 @@ def _bootstrap(a, b, statistic, level, resamples, seed, kind) -> Interval:
         return found
 
     estimate = float(difference(a[None], b[None])[0])
-    index = np.random.default_rng(seed).integers(0, a.shape[0], size=(resamples, a.shape[0]))
+    index = _resampled_indices(a.shape[0], resamples, int(block), np.random.default_rng(seed))
     resampled = difference(a[index], b[index])   # the cases resampled together: the pairs stay pairs
     tail = 100 * (1 - level) / 2
     low, high = np.percentile(resampled, [tail, 100 - tail])
+    kind = kind if block == 1 else f"{kind} in blocks of {int(block)}"
     return Interval(estimate, float(low), float(high), float(level), int(a.shape[0]), f"{kind} ({name})")
 
 
