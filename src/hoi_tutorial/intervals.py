@@ -128,6 +128,9 @@ def paired_difference(a, b, *, statistic: Union[str, Callable] = "mean", level: 
         :class:`Interval` with the estimate on the data as measured and the percentile interval of the
         ``R`` resampled differences (each resample draws ``N`` case indices with replacement, shared by
         ``a`` and ``b``; in blocks of ``L`` consecutive cases when ``block = L``).
+
+    With fewer than about ten cases the percentile interval is too narrow (it cannot see past the few values it
+    has): read its verdict with the count beside it.
     """
     return _bootstrap(a, b, statistic, level, resamples, seed, "paired bootstrap", block)
 
