@@ -4,7 +4,8 @@ import pytest
 import torch
 from scipy import stats
 
-from hoi_tutorial.intervals import VERDICTS, Interval, bootstrap_interval, paired_difference, share_interval
+from hoi_tutorial.intervals import (VERDICTS, Interval, bootstrap_interval, paired_difference, share_interval,
+                                    unpaired_difference)
 
 
 # ----------------------------------------------------------------------------- the paired bootstrap
@@ -142,6 +143,27 @@ def test_block_bootstrap_widens_the_interval_of_a_correlated_series():
     for bad in (0, n + 1, 2.5, True):
         with pytest.raises(ValueError, match="block"):
             bootstrap_interval(x, block=bad)
+
+
+def test_unpaired_bootstrap_matches_the_two_sample_normal_interval_and_scipy():
+    rng = np.random.default_rng(9)
+    a, b = rng.normal(1.0, 1.0, 300), rng.normal(0.7, 2.0, 500)
+    found = unpaired_difference(a, b, resamples=10000, seed=3)
+    half = 1.96 * np.sqrt(a.var(ddof=1) / len(a) + b.var(ddof=1) / len(b))
+    d = a.mean() - b.mean()
+    assert found.estimate == pytest.approx(d) and found.n == 800 and found.method == "unpaired bootstrap (mean)"
+    assert found.low == pytest.approx(d - half, abs=0.15 * half) and found.high == pytest.approx(d + half, abs=0.15 * half)
+    theirs = stats.bootstrap((a, b), lambda x, y, axis=-1: np.mean(x, axis=axis) - np.mean(y, axis=axis),
+                             paired=False, vectorized=True, n_resamples=10000, method="percentile",
+                             random_state=np.random.default_rng(4)).confidence_interval
+    assert found.low == pytest.approx(theirs.low, abs=0.05 * 2 * half)
+    assert found.high == pytest.approx(theirs.high, abs=0.05 * 2 * half)
+    # groups of different sizes and a median; too small a group is refused
+    assert unpaired_difference(np.arange(5.0), np.arange(3.0), statistic="median").estimate == 1.0
+    with pytest.raises(ValueError, match="at least 2 cases in each group"):
+        unpaired_difference(np.ones(5), np.ones(1))
+    with pytest.raises(ValueError, match="statistic"):
+        unpaired_difference(np.ones(3), np.ones(3), statistic="mode")
 
 
 # ----------------------------------------------------------------------------- shares

@@ -101,6 +101,12 @@ def test_training_lowers_the_loss_and_sampling_lands_in_the_world(tmp_cache):
     evaluation = goalnet.evaluate_goalnet(trained.model, goalnet.goal_data(data_config, "test"), n_generated=4)
     assert evaluation.n_test_objects == 6 and evaluation.position_error >= 0
     assert set(evaluation.apd_by_category) == {"chair", "armchair", "sofa"}
+    # the per-case arrays behind the means: per goal, per object (a category's mean is its entry)
+    assert evaluation.position_errors.shape == (evaluation.n_test_goals,)
+    assert evaluation.position_errors.mean() == pytest.approx(evaluation.position_error, rel=1e-5)
+    categories = np.asarray(goalnet.goal_data(data_config, "test").categories)
+    for category, apd in evaluation.apd_by_category.items():
+        assert evaluation.apd_pos_by_object[categories == category].mean() == pytest.approx(apd["apd_pos"], rel=1e-9)
     with pytest.raises(ValueError, match="n_generated"):
         goalnet.evaluate_goalnet(trained.model, goalnet.goal_data(data_config, "test"), n_generated=1)
 

@@ -7,6 +7,8 @@ another seed), moves such a number; whether a direction *holds* is therefore rea
 * :func:`paired_difference` — a paired bootstrap interval for ``statistic(a) - statistic(b)`` where ``a[i]`` and
   ``b[i]`` are two methods scored on the same test case ``i`` (resampling the cases, never the methods apart);
 * :func:`bootstrap_interval` — the same bootstrap for one method's statistic alone (a median against a threshold);
+* :func:`unpaired_difference` — two groups of different cases (multi-seat against single-seat objects), each
+  resampled on its own;
 * :func:`share_interval` — the Wilson score interval (or Clopper–Pearson's exact one) for ``k`` successes in ``n``;
 * :meth:`Interval.verdict` — ``"held"`` when the interval lies wholly on the claimed side of a threshold,
   ``"not held"`` when it lies wholly on the other side, ``"inconclusive"`` when it straddles the threshold.
@@ -27,7 +29,7 @@ import numpy as np
 import torch
 from scipy import stats
 
-__all__ = ["Interval", "VERDICTS", "paired_difference", "bootstrap_interval", "share_interval"]
+__all__ = ["Interval", "VERDICTS", "paired_difference", "bootstrap_interval", "unpaired_difference", "share_interval"]
 
 # What a checked direction can come to, in the ledger's words.
 VERDICTS = ("held", "inconclusive", "not held")
@@ -147,6 +149,47 @@ def bootstrap_interval(x, *, statistic: Union[str, Callable] = "mean", level: fl
     return _bootstrap(x, None, statistic, level, resamples, seed, "bootstrap", block)
 
 
+def unpaired_difference(a, b, *, statistic: Union[str, Callable] = "mean", level: float = 0.95,
+                        resamples: int = 4000, seed: int = 0) -> Interval:
+    """Two-sample bootstrap interval for ``statistic(a) - statistic(b)`` when ``a`` and ``b`` are different cases.
+
+    Use :func:`paired_difference` whenever the two come from the same cases: pairing removes what the cases share.
+    Here each group is resampled on its own (``N_a`` and ``N_b`` indices with replacement), for groups that share
+    no case, such as two kinds of object. Arguments as :func:`paired_difference`; ``a``: ``(N_a,)``, ``b``:
+    ``(N_b,)``, each with at least 2 values. The interval's ``n`` is ``N_a + N_b``.
+    """
+    a, b = _as_1d(a, "a"), _as_1d(b, "b")
+    if min(a.shape[0], b.shape[0]) < 2:
+        raise ValueError(f"a, b: expected at least 2 cases in each group, got {a.shape[0]} and {b.shape[0]}")
+    _check_level(level)
+    if not isinstance(resamples, int) or resamples < 100:
+        raise ValueError(f"resamples: expected an int of at least 100, got {resamples!r}")
+    reduce, name = _reducer(statistic)
+    rng = np.random.default_rng(seed)
+    index_a = rng.integers(0, a.shape[0], size=(resamples, a.shape[0]))
+    index_b = rng.integers(0, b.shape[0], size=(resamples, b.shape[0]))
+    resampled = np.asarray(reduce(a[index_a], axis=-1), float) - np.asarray(reduce(b[index_b], axis=-1), float)
+    if resampled.shape != (resamples,):
+        raise ValueError(f"statistic: expected it to reduce the last axis of an (R, N) array to (R,), got "
+                         f"{resampled.shape}")
+    estimate = float(np.asarray(reduce(a[None], axis=-1))[0] - np.asarray(reduce(b[None], axis=-1))[0])
+    tail = 100 * (1 - level) / 2
+    low, high = np.percentile(resampled, [tail, 100 - tail])
+    return Interval(estimate, float(low), float(high), float(level), int(a.shape[0] + b.shape[0]),
+                    f"unpaired bootstrap ({name})")
+
+
+def _reducer(statistic) -> tuple:
+    """``(function reducing an axis, its name)`` for a statistic given by name or as a function."""
+    if isinstance(statistic, str):
+        if statistic not in _STATISTICS:
+            raise ValueError(f"statistic: expected one of {_STATISTICS} or a function, got {statistic!r}")
+        return (np.mean if statistic == "mean" else np.median), statistic
+    if callable(statistic):
+        return statistic, getattr(statistic, "__name__", "statistic")
+    raise TypeError(f"statistic: expected one of {_STATISTICS} or a function, got {type(statistic).__name__}")
+
+
 def _resampled_indices(n: int, resamples: int, block: int, rng: np.random.Generator) -> np.ndarray:
     """``(resamples, n)`` case indices: drawn one by one, or as blocks of ``block`` consecutive cases whose starts
     are drawn uniformly from ``0 .. n - block`` (the moving-block bootstrap), cut to ``n``."""
@@ -169,15 +212,7 @@ def _bootstrap(a, b, statistic, level, resamples, seed, kind, block=1) -> Interv
         raise ValueError(f"resamples: expected an int of at least 100, got {resamples!r}")
     if isinstance(block, (bool, np.bool_)) or not isinstance(block, (int, np.integer)) or not 1 <= block <= a.shape[0]:
         raise ValueError(f"block: expected an int from 1 to the number of cases ({a.shape[0]}), got {block!r}")
-    if isinstance(statistic, str):
-        if statistic not in _STATISTICS:
-            raise ValueError(f"statistic: expected one of {_STATISTICS} or a function, got {statistic!r}")
-        reduce = np.mean if statistic == "mean" else np.median
-        name = statistic
-    elif callable(statistic):
-        reduce, name = statistic, getattr(statistic, "__name__", "statistic")
-    else:
-        raise TypeError(f"statistic: expected one of {_STATISTICS} or a function, got {type(statistic).__name__}")
+    reduce, name = _reducer(statistic)
 
     def difference(x: np.ndarray, y: np.ndarray) -> np.ndarray:
         found = np.asarray(reduce(x, axis=-1), dtype=np.float64) - np.asarray(reduce(y, axis=-1), dtype=np.float64)

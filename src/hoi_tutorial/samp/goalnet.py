@@ -376,6 +376,10 @@ class GoalNetEvaluation:
             (``n_gt_objects`` of them; each object weighs the same).
         apd_by_category: ``{category: {"apd_pos", "apd_rot"}}`` of the generated goals.
         n_generated: N of Eqs. 7–8.
+        position_errors: ``(n_test_goals,)`` metres, each test goal's reconstruction error (their mean is
+            ``position_error``): the cases for a paired comparison with another reading of the decoder.
+        apd_pos_by_object: ``(n_test_objects,)`` metres, each test object's APD-Pos (a category's mean is its
+            ``apd_by_category`` entry), in the order of ``data.categories``.
     """
 
     position_error: float
@@ -389,6 +393,8 @@ class GoalNetEvaluation:
     n_gt_objects: int
     apd_by_category: dict
     n_generated: int
+    position_errors: np.ndarray
+    apd_pos_by_object: np.ndarray
 
 
 def _labelled_apd(data: GoalData) -> tuple[float, float, int]:
@@ -423,8 +429,12 @@ def evaluate_goalnet(model: GoalNetCVAE, data: GoalData, n_generated: int = 10, 
     by_category = {c: goal_apd(gen_positions[categories == c], gen_directions[categories == c])
                    for c in dict.fromkeys(data.categories)}
     gt_pos, gt_rot, n_gt = _labelled_apd(data)
+    per_goal = np.linalg.norm(np.asarray(positions, dtype=np.float64) - np.asarray(true_positions, dtype=np.float64),
+                              axis=-1)
+    per_object = np.array([goal_apd(gen_positions[i:i + 1], gen_directions[i:i + 1])["apd_pos"]
+                           for i in range(data.n_objects)])
     return GoalNetEvaluation(
         position_error=errors["position_error"], angle_error=errors["angle_error"], n_test_goals=len(data),
         n_test_objects=data.n_objects, apd_pos=overall["apd_pos"], apd_rot=overall["apd_rot"],
         gt_apd_pos=gt_pos, gt_apd_rot=gt_rot, n_gt_objects=n_gt, apd_by_category=by_category,
-        n_generated=n_generated)
+        n_generated=n_generated, position_errors=per_goal, apd_pos_by_object=per_object)
