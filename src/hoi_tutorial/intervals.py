@@ -145,7 +145,6 @@ def bootstrap_interval(x, *, statistic: Union[str, Callable] = "mean", level: fl
     method against a fixed threshold ("the guided walks' median speed lies below the data's 5 % quantile").
     Arguments as there; ``x``: ``(N,)``.
     """
-    x = _as_1d(x, "x")
     return _bootstrap(x, None, statistic, level, resamples, seed, "bootstrap", block)
 
 
@@ -161,22 +160,36 @@ def unpaired_difference(a, b, *, statistic: Union[str, Callable] = "mean", level
     a, b = _as_1d(a, "a"), _as_1d(b, "b")
     if min(a.shape[0], b.shape[0]) < 2:
         raise ValueError(f"a, b: expected at least 2 cases in each group, got {a.shape[0]} and {b.shape[0]}")
-    _check_level(level)
-    if not isinstance(resamples, int) or resamples < 100:
-        raise ValueError(f"resamples: expected an int of at least 100, got {resamples!r}")
+    _check_resampling(level, resamples)
     reduce, name = _reducer(statistic)
     rng = np.random.default_rng(seed)
     index_a = rng.integers(0, a.shape[0], size=(resamples, a.shape[0]))
     index_b = rng.integers(0, b.shape[0], size=(resamples, b.shape[0]))
-    resampled = np.asarray(reduce(a[index_a], axis=-1), float) - np.asarray(reduce(b[index_b], axis=-1), float)
-    if resampled.shape != (resamples,):
+    resampled = _reduced(reduce, a[index_a]) - _reduced(reduce, b[index_b])   # each group on its own
+    estimate = float((_reduced(reduce, a[None]) - _reduced(reduce, b[None]))[0])
+    return _percentile_interval(estimate, resampled, level, a.shape[0] + b.shape[0], f"unpaired bootstrap ({name})")
+
+
+def _check_resampling(level: float, resamples: int) -> None:
+    _check_level(level)
+    if not isinstance(resamples, int) or resamples < 100:
+        raise ValueError(f"resamples: expected an int of at least 100, got {resamples!r}")
+
+
+def _reduced(reduce, x: np.ndarray) -> np.ndarray:
+    """``reduce`` over the last axis of an ``(R, N)`` array, checked to give ``(R,)`` float64."""
+    found = np.asarray(reduce(x, axis=-1), dtype=np.float64)
+    if found.shape != x.shape[:1]:
         raise ValueError(f"statistic: expected it to reduce the last axis of an (R, N) array to (R,), got "
-                         f"{resampled.shape}")
-    estimate = float(np.asarray(reduce(a[None], axis=-1))[0] - np.asarray(reduce(b[None], axis=-1))[0])
+                         f"{x.shape} -> {found.shape}")
+    return found
+
+
+def _percentile_interval(estimate: float, resampled: np.ndarray, level: float, n: int, method: str) -> Interval:
+    """The percentile interval of the resampled statistics around ``estimate``."""
     tail = 100 * (1 - level) / 2
     low, high = np.percentile(resampled, [tail, 100 - tail])
-    return Interval(estimate, float(low), float(high), float(level), int(a.shape[0] + b.shape[0]),
-                    f"unpaired bootstrap ({name})")
+    return Interval(float(estimate), float(low), float(high), float(level), int(n), method)
 
 
 def _reducer(statistic) -> tuple:
@@ -207,27 +220,15 @@ def _bootstrap(a, b, statistic, level, resamples, seed, kind, block=1) -> Interv
                          f"{a.shape[0]} and {b.shape[0]}")
     if a.shape[0] < 2:
         raise ValueError(f"expected at least 2 test cases, got {a.shape[0]}")
-    _check_level(level)
-    if not isinstance(resamples, int) or resamples < 100:
-        raise ValueError(f"resamples: expected an int of at least 100, got {resamples!r}")
+    _check_resampling(level, resamples)
     if isinstance(block, (bool, np.bool_)) or not isinstance(block, (int, np.integer)) or not 1 <= block <= a.shape[0]:
         raise ValueError(f"block: expected an int from 1 to the number of cases ({a.shape[0]}), got {block!r}")
     reduce, name = _reducer(statistic)
-
-    def difference(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        found = np.asarray(reduce(x, axis=-1), dtype=np.float64) - np.asarray(reduce(y, axis=-1), dtype=np.float64)
-        if found.shape != x.shape[:1]:
-            raise ValueError(f"statistic: expected it to reduce the last axis of an (R, N) array to (R,), got "
-                             f"{x.shape} -> {found.shape}")
-        return found
-
-    estimate = float(difference(a[None], b[None])[0])
+    estimate = float((_reduced(reduce, a[None]) - _reduced(reduce, b[None]))[0])
     index = _resampled_indices(a.shape[0], resamples, int(block), np.random.default_rng(seed))
-    resampled = difference(a[index], b[index])   # the cases resampled together: the pairs stay pairs
-    tail = 100 * (1 - level) / 2
-    low, high = np.percentile(resampled, [tail, 100 - tail])
+    resampled = _reduced(reduce, a[index]) - _reduced(reduce, b[index])   # the cases resampled together: pairs stay
     kind = kind if block == 1 else f"{kind} in blocks of {int(block)}"
-    return Interval(estimate, float(low), float(high), float(level), int(a.shape[0]), f"{kind} ({name})")
+    return _percentile_interval(estimate, resampled, level, a.shape[0], f"{kind} ({name})")
 
 
 def share_interval(successes, trials: int | None = None, *, level: float = 0.95,
