@@ -4,8 +4,8 @@ import pytest
 import torch
 from scipy import stats
 
-from hoi_tutorial.intervals import (VERDICTS, Interval, bootstrap_interval, paired_difference, share_interval,
-                                    unpaired_difference)
+from hoi_tutorial.intervals import (VERDICTS, Interval, bootstrap_interval, correlation_interval, paired_difference,
+                                    share_interval, unpaired_difference)
 
 
 # ----------------------------------------------------------------------------- the paired bootstrap
@@ -221,3 +221,30 @@ def test_verdict_reads_the_side_of_the_threshold():
     assert "n = 20" in str(interval)
     with pytest.raises(ValueError, match="claimed"):
         interval.verdict("higher")
+
+
+@pytest.mark.parametrize("n, slope", [(10, 0.3), (40, -1.0), (200, 0.05)])
+def test_correlation_interval_equals_scipy(n, slope):
+    rng = np.random.default_rng(n)
+    x = rng.normal(size=n)
+    y = slope * x + rng.normal(size=n)
+    found = correlation_interval(x, y)
+    expected = stats.pearsonr(x, y)
+    ci = expected.confidence_interval(0.95)
+    np.testing.assert_allclose([found.estimate, found.low, found.high], [expected.statistic, ci.low, ci.high],
+                               rtol=1e-9, atol=1e-12)
+    assert found.n == n and found.low < found.estimate < found.high
+
+
+def test_correlation_interval_verdicts_and_errors():
+    x = np.arange(30.0)
+    assert correlation_interval(x, 2 * x + np.sin(x)).verdict("above") == "held"
+    assert correlation_interval(x, -x + np.sin(x)).verdict("above") == "not held"
+    noise = np.random.default_rng(1).normal(size=30)
+    assert correlation_interval(x, noise).verdict("above") == "inconclusive"
+    with pytest.raises(ValueError, match="at least 4"):
+        correlation_interval([1, 2, 3], [1, 2, 3])
+    with pytest.raises(ValueError, match="vary"):
+        correlation_interval(x, np.ones(30))
+    with pytest.raises(ValueError, match="same length"):
+        correlation_interval(x, x[:10])

@@ -179,6 +179,54 @@ def test_table_row_known_answer():
         scoring.table_row(results, columns=("Speed ↑",))
 
 
+def _scores(d2o, skel, iou):
+    n = len(d2o)
+    unused = np.zeros(n)
+    return scoring.MotionScores(foot_skating=unused, d2o=np.asarray(d2o, float), penetration=unused,
+                                skeleton_distance=np.asarray(skel, float), nearest_anchor=unused.astype(int),
+                                contact_iou=np.asarray(iou, float), start_distance=unused, final_distance=unused)
+
+
+def test_paired_comparison_known_answers_and_verdicts():
+    # Ours reaches 3 of 4 scenes and theirs 1; ours is 2 m nearer the anchors in every scene.
+    ours = _scores([0.0, 0.01, 0.015, 0.4], [1.0, 2.0, 3.0, 4.0], [0.5, 0.5, 0.5, 0.5])
+    theirs = _scores([0.3, 0.01, 0.6, 0.9, 5.0], [3.0, 4.0, 5.0, 6.0, 9.0], [0.5, 0.5, 0.5, 0.5, 0.0])
+    found = scoring.paired_comparison(ours, theirs, n_scenes=4)
+    assert set(found) == {"reach", "d2o", "skel", "contact_iou"}
+    assert found["reach"].estimate == pytest.approx(0.5)
+    assert found["d2o"].estimate == pytest.approx(np.median(ours.d2o) - np.median(theirs.d2o[:4]))
+    assert found["skel"].estimate == pytest.approx(-2.0)
+    assert (found["skel"].low, found["skel"].high) == pytest.approx((-2.0, -2.0))   # every pair differs by 2 m
+    assert found["skel"].verdict("below") == "held" and found["contact_iou"].verdict("above") == "inconclusive"
+    assert found["skel"].n == 4
+    # the fifth scene of theirs (9 m) changes nothing when only the first four are compared
+    assert scoring.paired_comparison(ours, _scores(theirs.d2o[:4], theirs.skeleton_distance[:4],
+                                                   theirs.contact_iou[:4]))["skel"] == found["skel"]
+
+
+def test_comparison_table_shows_each_difference_and_its_verdict():
+    ours = _scores([0.0, 0.01, 0.015, 0.4], [1.0, 2.0, 3.0, 4.0], [0.5, 0.5, 0.5, 0.5])
+    theirs = _scores([0.3, 0.01, 0.6, 0.9], [3.0, 4.0, 5.0, 6.0], [0.5, 0.5, 0.5, 0.5])
+    table = scoring.comparison_table({"ours vs theirs": scoring.paired_comparison(ours, theirs),
+                                      "theirs vs ours": scoring.paired_comparison(theirs, ours)})
+    assert list(table.index) == ["ours vs theirs", "theirs vs ours"]
+    assert table.loc["ours vs theirs", "mean Skel. Dist. (m): better"] == "held"
+    assert table.loc["theirs vs ours", "mean Skel. Dist. (m): better"] == "not held"
+    assert table.loc["ours vs theirs", "% D2O ≤ 2cm (points)"].startswith("50 [")
+    with pytest.raises(ValueError, match="columns"):
+        scoring.comparison_table({}, columns=("speed",))
+
+
+def test_paired_comparison_rejects_scores_of_other_scenes():
+    a, b = _scores([0.0] * 3, [1.0] * 3, [0.0] * 3), _scores([0.0] * 5, [1.0] * 5, [0.0] * 5)
+    with pytest.raises(ValueError, match="same scenes"):
+        scoring.paired_comparison(a, b)
+    with pytest.raises(ValueError, match="n_scenes"):
+        scoring.paired_comparison(a, b, n_scenes=4)
+    with pytest.raises(ValueError, match="n_scenes"):
+        scoring.paired_comparison(a, b, n_scenes=1)
+
+
 # --------------------------------------------------------------------------- a model, end to end
 
 

@@ -10,6 +10,7 @@ another seed), moves such a number; whether a direction *holds* is therefore rea
 * :func:`unpaired_difference` — two groups of different cases (multi-seat against single-seat objects), each
   resampled on its own;
 * :func:`share_interval` — the Wilson score interval (or Clopper–Pearson's exact one) for ``k`` successes in ``n``;
+* :func:`correlation_interval` — Fisher's interval for a Pearson correlation ("the offsets grow with the distance");
 * :meth:`Interval.verdict` — ``"held"`` when the interval lies wholly on the claimed side of a threshold,
   ``"not held"`` when it lies wholly on the other side, ``"inconclusive"`` when it straddles the threshold.
 
@@ -29,7 +30,8 @@ import numpy as np
 import torch
 from scipy import stats
 
-__all__ = ["Interval", "VERDICTS", "paired_difference", "bootstrap_interval", "unpaired_difference", "share_interval"]
+__all__ = ["Interval", "VERDICTS", "paired_difference", "bootstrap_interval", "unpaired_difference", "share_interval",
+           "correlation_interval"]
 
 # What a checked direction can come to, in the ledger's words.
 VERDICTS = ("held", "inconclusive", "not held")
@@ -274,3 +276,27 @@ def share_interval(successes, trials: int | None = None, *, level: float = 0.95,
         high = 1.0 if k == n else float(stats.beta.ppf(1 - alpha / 2, k + 1, n - k))
     return Interval(float(p), float(low), float(high), float(level), n, method)
 
+
+
+def correlation_interval(x, y, *, level: float = 0.95) -> Interval:
+    """Interval for the Pearson correlation of ``x`` and ``y``, by Fisher's transformation (Fisher 1921).
+
+    x, y: ``(N,)`` paired values, ``N >= 4``, neither constant. The estimate is ``r``; the interval is
+    ``tanh(atanh(r) ± z / sqrt(N - 3))``, what :meth:`scipy.stats.pearsonr(...).confidence_interval()
+    <scipy.stats._result_classes.PearsonRResult.confidence_interval>` gives. Read "grows with" as
+    ``verdict("above", 0)``.
+    """
+    _check_level(level)
+    x, y = _as_1d(x, "x"), _as_1d(y, "y")
+    if x.shape != y.shape:
+        raise ValueError(f"x, y: expected paired values of the same length, got {x.shape[0]} and {y.shape[0]}")
+    n = x.shape[0]
+    if n < 4:
+        raise ValueError(f"x, y: expected at least 4 pairs for Fisher's interval, got {n}")
+    if np.ptp(x) == 0 or np.ptp(y) == 0:
+        raise ValueError("x, y: expected values that vary; a constant has no correlation")
+    r = float(np.clip(np.corrcoef(x, y)[0, 1], -1.0, 1.0))
+    z = stats.norm.ppf(0.5 + level / 2)
+    centre, half = np.arctanh(np.clip(r, -1 + 1e-15, 1 - 1e-15)), z / math.sqrt(n - 3)   # atanh(r) ± z/√(N−3)
+    return Interval(r, float(np.tanh(centre - half)), float(np.tanh(centre + half)), float(level), n,
+                    "Fisher's z (Pearson r)")

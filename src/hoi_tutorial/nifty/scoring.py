@@ -20,7 +20,8 @@ Per generated motion (its last frame is the interaction pose):
 - the pelvis's ground-plane distance to the object's centre at the start and at the end (how far
   the person got).
 
-:func:`table_row` condenses them as Table 1 does.
+:func:`table_row` condenses them as Table 1 does; :func:`paired_comparison` sets two methods' scores
+of the same scenes against each other, each difference with its paired bootstrap interval.
 
 Scaled down: 500 test scenes per action -> 32; sequences of 150 frames -> the model's
 ``max_frames``.
@@ -37,7 +38,7 @@ from typing import Optional, Sequence
 import numpy as np
 import torch
 
-from .. import metrics
+from .. import intervals, metrics
 from .._validate import check_choice
 from ..infra import single_threaded
 from ..world import body
@@ -61,6 +62,9 @@ __all__ = [
     "penetration_by_approach_length",
     "table_row",
     "table_counts",
+    "paired_comparison",
+    "BETTER",
+    "comparison_table",
 ]
 
 # NIFTY Appendix C.2: the median approach length for sitting, the 15th percentile for lifting.
@@ -421,3 +425,72 @@ def table_counts(results: MotionScores, d2o_threshold: float = 0.02, penetration
     return {"D2O ≤ 2cm": f"{int(reached.sum())} / {n}",
             "Skel. Dist. ≤ 25cm": f"{int((np.asarray(results.skeleton_distance) <= skeleton_threshold).sum())} / {n}",
             "Pen. ≤ 2cm": f"{int((pen[reached] <= penetration_threshold).sum())} / {int(reached.sum())}"}
+
+
+# The side of zero on which "ours is better" lies, for each difference :func:`paired_comparison` returns.
+BETTER = {"reach": "above", "d2o": "below", "skel": "below", "contact_iou": "above"}
+_COMPARISON_LABELS = {"reach": ("% D2O ≤ 2cm (points)", 100.0), "d2o": ("median D2O (m)", 1.0),
+                      "skel": ("mean Skel. Dist. (m)", 1.0), "contact_iou": ("contact IoU", 1.0)}
+
+
+def paired_comparison(ours: MotionScores, theirs: MotionScores, n_scenes: Optional[int] = None,
+                      d2o_threshold: float = 0.02) -> dict:
+    """Two methods' scores of the same test scenes, ours minus theirs, each with a paired 95 % interval.
+
+    Args:
+        ours, theirs: per-scene :class:`MotionScores`; scene ``i`` of both must be the same scene (the
+            evaluations of one ``evaluation_config`` share their scenes, in order).
+        n_scenes: compare the first ``n_scenes`` of each (a guided run of the first scenes against a
+            full evaluation); ``None`` requires the two to have the same length.
+        d2o_threshold: metres, "reaches the object" (Table 1: 2 cm).
+
+    Returns:
+        ``{"reach": ..., "d2o": ..., "skel": ..., "contact_iou": ...}``, each an
+        :class:`~hoi_tutorial.intervals.Interval` of ours minus theirs, paired scene by scene
+        (:func:`~hoi_tutorial.intervals.paired_difference`): the share of scenes with D2O at most the
+        threshold (0-1), the median D2O (m), the mean skeleton distance (m) and the mean contact IoU.
+        "Ours is better" reads ``verdict("above")`` for reach and contact IoU, ``verdict("below")``
+        for D2O and skeleton distance.
+    """
+    if n_scenes is None:
+        if len(ours) != len(theirs):
+            raise ValueError(f"ours, theirs: expected scores of the same scenes, got {len(ours)} and {len(theirs)} "
+                             "(give n_scenes to compare the first scenes of each)")
+        n_scenes = len(ours)
+    if not isinstance(n_scenes, int) or not 2 <= n_scenes <= min(len(ours), len(theirs)):
+        raise ValueError(f"n_scenes: expected an int from 2 to {min(len(ours), len(theirs))} (the scenes both "
+                         f"score), got {n_scenes!r}")
+
+    def first(m: MotionScores, name: str) -> np.ndarray:
+        return np.asarray(getattr(m, name), dtype=np.float64)[:n_scenes]
+
+    return {
+        "reach": intervals.paired_difference(first(ours, "d2o") <= d2o_threshold,
+                                             first(theirs, "d2o") <= d2o_threshold),
+        "d2o": intervals.paired_difference(first(ours, "d2o"), first(theirs, "d2o"), statistic="median"),
+        "skel": intervals.paired_difference(first(ours, "skeleton_distance"), first(theirs, "skeleton_distance")),
+        "contact_iou": intervals.paired_difference(first(ours, "contact_iou"), first(theirs, "contact_iou")),
+    }
+
+
+def comparison_table(comparisons, columns: Sequence[str] = ("reach", "d2o", "skel")):
+    """A DataFrame of :func:`paired_comparison` results, one row per comparison.
+
+    comparisons: ``{row label: paired_comparison(...)}``. columns: which differences to show. Each
+    difference appears as ``"estimate [low, high]"`` (the share in percentage points), followed by its
+    verdict on "ours is better" (:data:`BETTER`): "held", "inconclusive" or "not held".
+    """
+    import pandas as pd
+
+    for c in columns:
+        if c not in BETTER:
+            raise ValueError(f"columns: expected names among {tuple(BETTER)}, got {c!r}")
+    rows = {}
+    for label, found in comparisons.items():
+        row = {}
+        for c in columns:
+            name, scale = _COMPARISON_LABELS[c]
+            row[name] = found[c].format(scale=scale)
+            row[f"{name}: better"] = found[c].verdict(BETTER[c])
+        rows[label] = row
+    return pd.DataFrame(rows).T
