@@ -248,3 +248,12 @@ def test_correlation_interval_verdicts_and_errors():
         correlation_interval(x, np.ones(30))
     with pytest.raises(ValueError, match="same length"):
         correlation_interval(x, x[:10])
+
+
+def test_a_claim_that_allows_a_tie_fails_only_wholly_on_the_other_side():
+    tie = Interval(0.0, 0.0, 0.0, 0.95, 10, "paired bootstrap (mean)")
+    straddles = Interval(0.1, -0.2, 0.3, 0.95, 10, "paired bootstrap (mean)")
+    below = Interval(-0.5, -0.8, -0.1, 0.95, 10, "paired bootstrap (mean)")
+    assert tie.verdict("above") == "inconclusive" and tie.verdict("above", strict=False) == "held"
+    assert straddles.verdict("above", strict=False) == "held"
+    assert below.verdict("above", strict=False) == "not held" and below.verdict("below", strict=False) == "held"

@@ -63,14 +63,18 @@ class Interval:
             return "below"
         return "straddles"
 
-    def verdict(self, claimed: str, threshold: float = 0.0) -> str:
+    def verdict(self, claimed: str, threshold: float = 0.0, *, strict: bool = True) -> str:
         """Whether a claimed direction held: one of :data:`VERDICTS`.
 
         claimed: ``"above"`` (the difference or share is claimed to exceed ``threshold``) or ``"below"``.
+        strict: ``False`` for a claim that allows a tie ("at least as often"): it is ``"not held"`` only when
+            the interval lies wholly on the other side, and ``"held"`` otherwise.
         """
         if claimed not in _SIDES:
             raise ValueError(f"claimed: expected one of {_SIDES}, got {claimed!r}")
         side = self.side(threshold)
+        if not strict:
+            return "held" if side in ("straddles", claimed) else "not held"
         if side == "straddles":
             return "inconclusive"
         return "held" if side == claimed else "not held"
