@@ -14,8 +14,10 @@ from hoi_tutorial.nifty.motion_prior import PoseTrack
 from hoi_tutorial.nifty.rollout import InteractionSequence
 from hoi_tutorial.world.body import body_from_motion
 from hoi_tutorial.world.mocap import generate_clip
+from hoi_tutorial.world.motion import Motion
 from hoi_tutorial.world.objects import make_object
-from hoi_tutorial.world.skeleton import NUM_JOINTS
+from hoi_tutorial.world.rotations import axis_angle_to_matrix
+from hoi_tutorial.world.skeleton import JOINT_NAMES, NUM_JOINTS
 
 FRAMES = 61
 
@@ -119,6 +121,38 @@ def test_a_pose_shifted_one_metre_is_22_metres_of_skeleton_distance(sit_case):
     assert math.isnan(scores.penetration[0])  # not reaching: Table 1 does not score its approach
 
 
+def test_pose_only_distance_ignores_where_the_body_stands_and_sees_a_moved_joint(sit_case):
+    records, anchors = sit_case
+    record = records[0]
+    dtype = record.motion.root_position.dtype
+    # The anchor's own pose, carried (turned 2 rad and moved 3 m) anywhere in the room, away from its chair.
+    elsewhere = record.motion.transformed(2.0, torch.tensor([3.0, -2.0, 0.0], dtype=dtype))
+    # The same pose with the right elbow bent a further 0.8 rad at the last frame.
+    rotations = record.motion.local_rotations.clone()
+    elbow = JOINT_NAMES.index("right_elbow")
+    rotations[-1, elbow] = rotations[-1, elbow] @ axis_angle_to_matrix(torch.tensor([0.0, 0.0, 0.8], dtype=dtype))
+    bent = Motion(rotations, record.motion.root_position, record.motion.betas)
+    scores = scoring.evaluate_motions([record.motion, elsewhere, bent], [record.obj] * 3, anchors[:1], n_approach=30,
+                                      n_object_points=500)
+    np.testing.assert_allclose(scores.pose_distance[:2], 0.0, atol=1e-4)  # float32 joints
+    assert scores.skeleton_distance[1] > 10.0  # the object-frame distance sees where it stands
+    # The elbow moves the forearm and hand: the pose-only distance grows by their displacement, about 2 x 0.2 m.
+    assert 0.1 < scores.pose_distance[2] < 1.0
+    assert scores.pose_distance[2] == pytest.approx(scores.skeleton_distance[2], abs=1e-6)
+
+
+def test_pose_threshold_is_a_quantile_of_the_training_scores_and_pose_row_counts_under_it():
+    training = _scores([0.1] * 5, [1.0] * 5, [0.0] * 5, pose=[0.5, 0.8, 1.0, 1.3, 2.0])
+    assert scoring.pose_threshold(training) == pytest.approx(1.0)
+    assert scoring.pose_threshold(training, quantile=0.25) == pytest.approx(0.8)
+    row = scoring.pose_row(_scores([0.1] * 4, [1.0] * 4, [0.0] * 4, pose=[0.4, 1.0, 1.01, 3.0]), 1.0)
+    assert row == {"Pose Dist. ↓": pytest.approx(1.3525), "% Pose Dist. ≤ 100cm ↑": 50.0, "count": "2 / 4"}
+    with pytest.raises(ValueError, match="quantile"):
+        scoring.pose_threshold(training, quantile=1.0)
+    with pytest.raises(TypeError, match="MotionScores"):
+        scoring.pose_row({"pose_distance": [1.0]}, 1.0)
+
+
 def test_evaluate_motions_rejects_bad_input(sit_case):
     records, anchors = sit_case
     with pytest.raises(ValueError, match="motions, objects"):
@@ -156,7 +190,7 @@ def test_table_row_known_answer():
         d2o=np.array([0.0, 0.01, 0.5, 1.0]),
         penetration=np.array([0.01, 0.03, np.nan, np.nan]),
         skeleton_distance=np.array([1.0, 2.0, 3.0, 6.0]),
-        nearest_anchor=unused.astype(int), contact_iou=np.array([1.0, 0.5, 0.0, 0.0]),
+        nearest_anchor=unused.astype(int), contact_iou=np.array([1.0, 0.5, 0.0, 0.0]), pose_distance=unused,
         start_distance=unused, final_distance=unused)
     row = scoring.table_row(results)
     assert list(row) == list(scoring.TABLE1_COLUMNS)
@@ -179,12 +213,14 @@ def test_table_row_known_answer():
         scoring.table_row(results, columns=("Speed ↑",))
 
 
-def _scores(d2o, skel, iou):
+def _scores(d2o, skel, iou, pose=None):
     n = len(d2o)
     unused = np.zeros(n)
     return scoring.MotionScores(foot_skating=unused, d2o=np.asarray(d2o, float), penetration=unused,
                                 skeleton_distance=np.asarray(skel, float), nearest_anchor=unused.astype(int),
-                                contact_iou=np.asarray(iou, float), start_distance=unused, final_distance=unused)
+                                contact_iou=np.asarray(iou, float),
+                                pose_distance=np.asarray(skel if pose is None else pose, float),
+                                start_distance=unused, final_distance=unused)
 
 
 def test_paired_comparison_known_answers_and_verdicts():
@@ -192,7 +228,7 @@ def test_paired_comparison_known_answers_and_verdicts():
     ours = _scores([0.0, 0.01, 0.015, 0.4], [1.0, 2.0, 3.0, 4.0], [0.5, 0.5, 0.5, 0.5])
     theirs = _scores([0.3, 0.01, 0.6, 0.9, 5.0], [3.0, 4.0, 5.0, 6.0, 9.0], [0.5, 0.5, 0.5, 0.5, 0.0])
     found = scoring.paired_comparison(ours, theirs, n_scenes=4)
-    assert set(found) == {"reach", "d2o", "skel", "contact_iou"}
+    assert set(found) == {"reach", "d2o", "skel", "pose", "contact_iou"}
     assert found["reach"].estimate == pytest.approx(0.5)
     assert found["d2o"].estimate == pytest.approx(np.median(ours.d2o) - np.median(theirs.d2o[:4]))
     assert found["skel"].estimate == pytest.approx(-2.0)
@@ -338,6 +374,22 @@ def test_penetration_by_approach_length_agrees_with_the_per_motion_score(sit_cas
         scoring.penetration_by_approach_length(motions, objects, scores.d2o, [0, 10])
     with pytest.raises(ValueError, match="d2o"):
         scoring.penetration_by_approach_length(motions, objects, scores.d2o[:1], values)
+
+
+def test_controls_select_by_the_same_objective_and_guide_one_sample(sit_case, tmp_cache):
+    from hoi_tutorial.nifty.interaction_field import interaction_field_config
+
+    dataset, model_config = _tiny_dataset_and_model(sit_case)
+    field_config = interaction_field_config("sit", "toy", width=32, layers=1, pointnet_hidden=(32,),
+                                            copies_per_sequence=2, steps=5, batch_size=4)
+    config = evaluation.EvaluationConfig(n_scenes=2, n_training=2, n_approach_sequences=2, n_object_points=200)
+    controls = evaluation.evaluate_controls(dataset, model_config, field_config, config, n_samples=3, alpha=0.5)
+    assert tuple(controls) == evaluation.CONTROLS
+    selection, guided = controls["selection only"], controls["guidance only"]
+    assert (selection.n_samples, selection.alpha) == (3, 0.0) and (guided.n_samples, guided.alpha) == (1, 0.5)
+    assert selection.all_objectives.shape == (2, 3) and guided.all_objectives.shape == (2, 1)
+    np.testing.assert_allclose(selection.objective, selection.all_objectives.min(axis=1))
+    assert len(selection.samples.metrics) == len(guided.samples.metrics) == 2
 
 
 def test_guided_blocks_are_cached_apart_and_reused(sit_case, tmp_cache, monkeypatch):

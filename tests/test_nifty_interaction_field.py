@@ -10,7 +10,8 @@ from hoi_tutorial.nifty import interaction_field as field_module
 from hoi_tutorial.nifty.anchors import Anchor
 from hoi_tutorial.nifty.interaction_field import (InteractionField, field_training_pairs, interaction_field_config,
                                                   simplified_pose, to_field_frame, train_interaction_field)
-from hoi_tutorial.nifty.motion_model import InteractionTensors, build_motion_model, motion_model_config
+from hoi_tutorial.nifty.motion_model import (InteractionTensors, build_motion_model, motion_model_config,
+                                             sample_motions)
 from hoi_tutorial.nifty.motion_prior import PoseTrack
 from hoi_tutorial.nifty.rollout import InteractionSequence
 from hoi_tutorial.nn.diffusion import guided_x0
@@ -184,6 +185,30 @@ def test_best_of_n_keeps_the_lowest_objective(sit_tensors):
     assert torch.equal(out.chosen, out.all_objectives.argmin(dim=1))
 
 
+def test_selection_only_is_unguided_sampling_selected_by_the_same_objective(sit_tensors):
+    # Chapter 6's "selection only" control: alpha = 0 draws exactly the unguided samples (same noise) and keeps
+    # the one the same G scores lowest; a positive alpha moves the samples.
+    _, tensors = sit_tensors
+    model = _tiny_model(tensors)
+    torch.manual_seed(1)
+    field = InteractionField(_tiny_field_config()).eval()
+    cond = tensors.condition()
+    objective_for = functools.partial(guidance.field_objective, field)
+    selected = guidance.guided_samples(model, cond, objective_for, n_samples=3, alpha=0.0,
+                                       generator=torch.Generator().manual_seed(0))
+    unguided = sample_motions(model, cond, generator=torch.Generator().manual_seed(0), n_samples=3)
+    with torch.no_grad():
+        values = objective_for(cond, 3)(unguided).reshape(3, 3)
+    torch.testing.assert_close(selected.all_objectives, values)
+    rows = torch.arange(3)
+    torch.testing.assert_close(selected.states, unguided.reshape(3, 3, *unguided.shape[1:])[rows, values.argmin(1)])
+    guided = guidance.guided_samples(model, cond, objective_for, n_samples=3, alpha=0.1,
+                                     generator=torch.Generator().manual_seed(0))
+    assert not torch.allclose(guided.all_objectives, selected.all_objectives)
+    with pytest.raises(ValueError, match="alpha"):
+        guidance.guided_samples(model, cond, objective_for, n_samples=3, alpha=-1.0, generator=torch.Generator())
+
+
 def test_nearest_anchor_objective_is_zero_at_an_anchor(sit_tensors):
     records, tensors = sit_tensors
     anchors = guidance.anchor_simplified_poses([r.anchor for r in records])
@@ -197,6 +222,16 @@ def test_nearest_anchor_objective_is_zero_at_an_anchor(sit_tensors):
     shifted = tensors.states.clone()
     shifted[..., NIFTY_STATE_LAYOUT["joint_positions"]] += 0.1
     assert objective(shifted).min() > 0.01
+    # Restricted to the anchors of each scene's object (D.1), a sequence whose own anchor is excluded is not at 0,
+    # and its value is the distance to the nearest anchor it may use.
+    others = ~torch.eye(3, dtype=torch.bool)
+    restricted = guidance.nearest_anchor_objective(anchors, tensors.condition(), allowed=others)(tensors.states)
+    spread = (anchors[:, None] - anchors[None]).pow(2).flatten(2).sum(-1) + torch.diag(torch.full((3,), float("inf")))
+    torch.testing.assert_close(restricted, spread.min(dim=1).values, atol=1e-4, rtol=1e-4)
+    own = guidance.nearest_anchor_objective(anchors, tensors.condition(), allowed=torch.eye(3, dtype=torch.bool))
+    assert own(tensors.states).max() < 1e-6
+    with pytest.raises(ValueError, match="allowed"):
+        guidance.nearest_anchor_objective(anchors, tensors.condition(), allowed=torch.zeros(3, 3, dtype=torch.bool))
 
 
 def test_bad_inputs_name_what_was_expected(sit_tensors):

@@ -8,6 +8,7 @@ here it is applied, once per configuration, to
 - the model guided by the interaction field, best of N (:func:`evaluate_guided`: NIFTY; with other fields
   or the nearest-anchor objective, the ablations of Tables 2-7),
 - the Cond. VAE baseline (:func:`evaluate_cond_vae`),
+- the two controls that split NIFTY's gain between guidance and selection (:func:`evaluate_controls`),
 
 with builders for ``infra.warm_cache``. Every result goes through the artifact cache, keyed by the
 configurations and the code.
@@ -48,6 +49,8 @@ __all__ = [
     "evaluate_guided",
     "build_guided_evaluation",
     "evaluate_cond_vae",
+    "CONTROLS",
+    "evaluate_controls",
     "build_table1",
 ]
 
@@ -271,8 +274,8 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
     with :func:`evaluate_motions`, once (then from the cache).
 
     With ``objective="nearest_anchor"`` the guidance is Appendix D.1's non-parametric field instead
-    (the offset to the nearest training anchor pose, ``guidance.nearest_anchor_objective``; Table 3)
-    and ``field_config`` is not used (pass ``None``).
+    (the offset to the nearest training anchor pose of the scene's object category,
+    ``guidance.nearest_anchor_objective``; Table 3) and ``field_config`` is not used (pass ``None``).
 
     The scenes, ``N_A`` and the point sampling are those of :func:`evaluate_motion_model` for the same
     ``config``, so the rows compare scene by scene with its Cond. MDM samples.
@@ -283,7 +286,8 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
         field_config: the ``nifty.interaction_field.InteractionFieldConfig`` of the field.
         config: an :class:`EvaluationConfig` (default: the toy preset).
         n_samples: candidates per scene, N (NIFTY: 10).
-        alpha: guidance step size (default ``guidance.GUIDANCE_ALPHA["field"]``).
+        alpha: guidance step size (default ``guidance.GUIDANCE_ALPHA["field"]``); ``0`` samples without
+            guidance and only selects by the objective (the *selection only* control).
         n_scenes: the first this many test scenes (default all).
         objective: ``"field"`` (NIFTY) or ``"nearest_anchor"`` (Table 3's non-parametric field).
         device: where to train (if needed) and sample.
@@ -308,8 +312,12 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
                                                                 device=device).model
             objective_for = functools.partial(guidance.field_objective, field)
         else:
+            # D.1: the nearest anchor pose of the object, i.e. of the scene's object category.
+            allowed = torch.tensor([[a.obj.category == s.obj.category for a in dataset.training_anchors]
+                                    for s in block])
             objective_for = functools.partial(guidance.nearest_anchor_objective,
-                                              guidance.anchor_simplified_poses(dataset.training_anchors))
+                                              guidance.anchor_simplified_poses(dataset.training_anchors),
+                                              allowed=allowed)
         cond, placement = _scene_conditions(block, model_config.n_points, config.seed)
         generator = torch.Generator().manual_seed(int(np.random.SeedSequence([config.seed, start]).generate_state(1)[0]))
         out = guidance.guided_samples(model, cond, objective_for, n_samples=n_samples, alpha=alpha, generator=generator,
@@ -399,10 +407,41 @@ def evaluate_cond_vae(dataset, model_config, vae_config, config: Optional[Evalua
     return ScoredMotions(motions, MotionScores(**artifact["metrics"]))
 
 
+# --------------------------------------------------------------------------- controls: guidance or selection?
+
+# NIFTY keeps the best of N guided samples by the field's objective G (§4.1), so its gain over one unguided sample
+# (Cond. MDM) has two sources. Each control keeps one: "selection only" draws N samples without guidance (α = 0)
+# and keeps the best by the same G; "guidance only" draws one guided sample (nothing to select from).
+CONTROLS = ("selection only", "guidance only")
+
+
+def evaluate_controls(dataset, model_config, field_config, config: Optional[EvaluationConfig] = None, *,
+                      n_samples: int = 10, alpha: Optional[float] = None, device="cpu") -> dict:
+    """Chapter 6's two controls of Table 1 on every test scene, scored, once (then from the cache).
+
+    - ``"selection only"``: ``n_samples`` samples per scene *without* guidance, the one with the lowest
+      final field objective G kept (:func:`evaluate_guided` with ``alpha=0``): what choosing the best
+      of N by G does alone;
+    - ``"guidance only"``: one guided sample per scene (``n_samples=1``, NIFTY's α): what guidance does
+      alone.
+
+    The same scenes, model, field (the same G) and N as NIFTY's row, so each compares with NIFTY and
+    with Cond. MDM scene by scene.
+
+    Returns:
+        ``{"selection only": GuidedEvaluation, "guidance only": GuidedEvaluation}``.
+    """
+    return {"selection only": evaluate_guided(dataset, model_config, field_config, config, n_samples=n_samples,
+                                              alpha=0.0, device=device),
+            "guidance only": evaluate_guided(dataset, model_config, field_config, config, n_samples=1, alpha=alpha,
+                                             device=device)}
+
+
 def build_table1(data_config, model_config, field_config, vae_config, config: Optional[EvaluationConfig] = None, *,
                  n_samples: int = 10, device="cpu") -> None:
-    """Every artifact of one action's Table 1 (Cond. VAE, Cond. MDM, NIFTY on all test scenes), built
-    or loaded: for ``infra.warm_cache``, which builds the two actions at once."""
+    """Every artifact of one action's Table 1 (Cond. VAE, Cond. MDM, NIFTY and the two controls on all test
+    scenes), built or loaded: for ``infra.warm_cache``, which builds the two actions at once."""
     dataset = data.synthesize(data_config, device=device, progress=False)
     evaluate_guided(dataset, model_config, field_config, config, n_samples=n_samples, device=device)
+    evaluate_controls(dataset, model_config, field_config, config, n_samples=n_samples, device=device)
     evaluate_cond_vae(dataset, model_config, vae_config, config, device=device)

@@ -104,19 +104,23 @@ def anchor_simplified_poses(anchors) -> torch.Tensor:
     return torch.stack(poses)
 
 
-def nearest_anchor_objective(anchor_poses: torch.Tensor, cond: dict,
-                             n_samples: int = 1) -> Callable[[torch.Tensor], torch.Tensor]:
+def nearest_anchor_objective(anchor_poses: torch.Tensor, cond: dict, n_samples: int = 1,
+                             allowed: Optional[torch.Tensor] = None) -> Callable[[torch.Tensor], torch.Tensor]:
     """The non-parametric field of NIFTY Appendix D.1 (Table 3): the squared distance from the last
     simplified pose to the nearest anchor pose, both in the object's frame.
 
     The nearest anchor is chosen anew at every call (no gradient flows through the choice); the
-    offset to it plays the role of ``F_φ(X̃_N)``.
+    offset to it plays the role of ``F_φ(X̃_N)``. D.1 searches "the nearest anchor pose *of the
+    object*": ``allowed`` restricts each scene's search to its object's anchors (chapter 7 passes
+    the anchors of the scene's object category; the test object is a new instance of it).
 
     Args:
         anchor_poses: ``(A, 23, 3)`` metres, the training anchors' simplified poses, each in its
             object's frame (:func:`anchor_simplified_poses`).
         cond: the raw condition of ``B`` scenes.
         n_samples: samples per scene the objective will see.
+        allowed: ``(B, A)`` bool, the anchors each scene may use (at least one per scene), or
+            ``None`` for every anchor.
     Returns:
         ``G: states (B·n_samples, T, 336) -> (B·n_samples,)`` in m², differentiable.
     """
@@ -125,6 +129,12 @@ def nearest_anchor_objective(anchor_poses: torch.Tensor, cond: dict,
     if anchor_poses.shape[0] == 0:
         raise ValueError("anchor_poses: expected at least one anchor pose")
     batch = _check_cond(cond)
+    if allowed is not None:
+        allowed = torch.as_tensor(allowed, dtype=torch.bool)
+        check_shape(allowed, (batch, anchor_poses.shape[0]), "allowed")
+        if not allowed.any(dim=1).all():
+            raise ValueError("allowed: expected at least one allowed anchor for every scene")
+        allowed = _repeat_rows(allowed, n_samples)
     points = _repeat_rows(as_tensor(cond["points"], "points").float(), n_samples)
     object_pose = _repeat_rows(as_tensor(cond["object_pose"], "object_pose").float(), n_samples)
 
@@ -135,7 +145,10 @@ def nearest_anchor_objective(anchor_poses: torch.Tensor, cond: dict,
         poses = poses[:, 0]
         anchors = anchor_poses.to(states.device)
         with torch.no_grad():
-            nearest = torch.cdist(poses.flatten(1), anchors.flatten(1)).argmin(dim=1)
+            distance = torch.cdist(poses.flatten(1), anchors.flatten(1))
+            if allowed is not None:
+                distance = distance.masked_fill(~allowed.to(states.device), float("inf"))
+            nearest = distance.argmin(dim=1)
         return (anchors[nearest] - poses).pow(2).flatten(1).sum(dim=1)
 
     return objective
@@ -173,7 +186,9 @@ def guided_samples(model: NiftyMotionModel, cond: dict, objective_for: Optional[
             sampler draws, e.g. ``functools.partial(field_objective, field)``; ``None`` samples
             without guidance (and keeps the first candidate of each scene: Cond. MDM).
         n_samples: candidates per scene, N.
-        alpha: the guidance step size α (Eq. 4).
+        alpha: the guidance step size α (Eq. 4). With ``alpha=0`` guidance moves nothing, so the
+            sampler draws without it (no gradient is taken) and the objective only selects: the
+            *selection only* control of chapter 6 (N unguided samples, the best by the same G).
         generator: ``torch.Generator`` for all noise.
         guidance_scale: classifier-free scale (default the model's).
         device: where to sample.
@@ -182,9 +197,13 @@ def guided_samples(model: NiftyMotionModel, cond: dict, objective_for: Optional[
     """
     if not isinstance(n_samples, int) or isinstance(n_samples, bool) or n_samples < 1:
         raise ValueError(f"n_samples: expected a positive int, got {n_samples!r}")
+    if isinstance(alpha, bool) or not isinstance(alpha, (int, float)) or not alpha >= 0:
+        raise ValueError(f"alpha: expected a step size >= 0, got {alpha!r}")
     batch = _check_cond(cond)
     guidance = None if objective_for is None else objective_for(cond, n_samples)
-    states = sample_motions(model, cond, generator=generator, guidance=guidance, alpha=alpha if guidance else 0.0,
+    # α = 0: x̃0 = x̂0 at every step (Eq. 4), so sample unguided and let G select.
+    guide = guidance if alpha > 0 else None
+    states = sample_motions(model, cond, generator=generator, guidance=guide, alpha=float(alpha) if guide else 0.0,
                             n_samples=n_samples, guidance_scale=guidance_scale, device=device)
     states = states.reshape(batch, n_samples, *states.shape[1:])
     if guidance is None:
