@@ -151,11 +151,16 @@ def test_simplified_pose_places_the_pose_where_the_integrated_root_ends(sit_tens
     torch.testing.assert_close(still[:, -1, :2], first + step)
 
 
-def test_guidance_with_the_field_lowers_the_objective_on_a_fixed_noisy_input(sit_tensors):
-    _, tensors = sit_tensors
+def _tiny_model_and_field(tensors):
+    """A tiny motion model and an untrained field with seeded weights (the guidance tests' pair)."""
     model = _tiny_model(tensors)
     torch.manual_seed(1)
-    field = InteractionField(_tiny_field_config()).eval()
+    return model, InteractionField(_tiny_field_config()).eval()
+
+
+def test_guidance_with_the_field_lowers_the_objective_on_a_fixed_noisy_input(sit_tensors):
+    _, tensors = sit_tensors
+    model, field = _tiny_model_and_field(tensors)
     cond = tensors.condition()
     objective = guidance.field_objective(field, cond)
     encoded = model.encode_condition(cond)
@@ -175,9 +180,7 @@ def test_guidance_with_the_field_lowers_the_objective_on_a_fixed_noisy_input(sit
 
 def test_best_of_n_keeps_the_lowest_objective(sit_tensors):
     _, tensors = sit_tensors
-    model = _tiny_model(tensors)
-    torch.manual_seed(1)
-    field = InteractionField(_tiny_field_config()).eval()
+    model, field = _tiny_model_and_field(tensors)
     out = guidance.guided_samples(model, tensors.condition(), functools.partial(guidance.field_objective, field),
                                   n_samples=3, alpha=0.1, generator=torch.Generator().manual_seed(0))
     assert out.states.shape == (3, FRAMES, tensors.states.shape[-1]) and out.all_objectives.shape == (3, 3)
@@ -189,9 +192,7 @@ def test_selection_only_is_unguided_sampling_selected_by_the_same_objective(sit_
     # Chapter 6's "selection only" control: alpha = 0 draws exactly the unguided samples (same noise) and keeps
     # the one the same G scores lowest; a positive alpha moves the samples.
     _, tensors = sit_tensors
-    model = _tiny_model(tensors)
-    torch.manual_seed(1)
-    field = InteractionField(_tiny_field_config()).eval()
+    model, field = _tiny_model_and_field(tensors)
     cond = tensors.condition()
     objective_for = functools.partial(guidance.field_objective, field)
     selected = guidance.guided_samples(model, cond, objective_for, n_samples=3, alpha=0.0,
