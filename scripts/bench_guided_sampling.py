@@ -49,7 +49,7 @@ def main(argv=None):
     def run():
         with threads_allowed(args.threads):
             return guidance.guided_samples(model, cond, functools.partial(guidance.field_objective, field),
-                                           n_samples=args.samples, alpha=guidance.GUIDANCE_ALPHA["field"],
+                                           n_samples=args.samples, alpha=field_config.guidance_alpha,
                                            generator=torch.Generator().manual_seed(args.seed))
 
     run()  # warm-up

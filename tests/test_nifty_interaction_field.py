@@ -11,7 +11,7 @@ from hoi_tutorial.nifty.anchors import Anchor
 from hoi_tutorial.nifty.interaction_field import (InteractionField, field_training_pairs, interaction_field_config,
                                                   simplified_pose, to_field_frame, train_interaction_field)
 from hoi_tutorial.nifty.motion_model import (InteractionTensors, build_motion_model, motion_model_config,
-                                             sample_motions)
+                                             sample_motions, sample_motions_with_record)
 from hoi_tutorial.nifty.motion_prior import PoseTrack
 from hoi_tutorial.nifty.rollout import InteractionSequence
 from hoi_tutorial.nn.diffusion import guided_x0
@@ -119,7 +119,8 @@ def test_object_frame_field_is_invariant_to_moving_person_and_object_together(si
     values = {}
     for frame in ("object", "human"):
         torch.manual_seed(0)
-        field = InteractionField(_tiny_field_config(frame=frame, output=output)).eval()
+        # No α was chosen for a human-frame distance field; this test does not guide with it.
+        field = InteractionField(_tiny_field_config(frame=frame, output=output, guidance_alpha=1.0)).eval()
         g = guidance.field_objective(field, cond)(states)
         g_moved = guidance.field_objective(field, moved_cond)(moved_states)
         values[frame] = (g, g_moved)
@@ -285,3 +286,63 @@ def test_field_anchor_subset_takes_a_share_of_the_training_anchors(sit_tensors):
         _tiny_field_config(anchor_fraction=0.0)
     with pytest.raises(ValueError, match="anchor_fraction"):
         _tiny_field_config(anchor_fraction=1.5)
+
+
+def test_guiding_the_last_step_changes_only_the_final_step(sit_tensors):
+    # The Trace and Pace code skips guidance at k = 0; guide_last_step adds it. The steps before are the same, so
+    # the samples differ, by one more guided update of the last prediction.
+    _, tensors = sit_tensors
+    model, field = _tiny_model_and_field(tensors)
+    cond = tensors.condition()
+    objective_for = functools.partial(guidance.field_objective, field)
+    runs = {flag: guidance.guided_samples(model, cond, objective_for, n_samples=2, alpha=0.1, guide_last_step=flag,
+                                          generator=torch.Generator().manual_seed(0)) for flag in (False, True)}
+    assert not torch.allclose(runs[False].all_objectives, runs[True].all_objectives)
+    # Both runs reach the last step from the same input; only its update differs.
+    steps = model.config.diffusion_steps
+    record = {flag: sample_motions_with_record(model, cond, generator=torch.Generator().manual_seed(0), n_samples=2,
+                                               guidance=objective_for(cond, 2), alpha=0.1,
+                                               guidance_steps=range(steps) if flag else None)
+              for flag in (False, True)}
+    torch.testing.assert_close(record[False].x_k[-1], record[True].x_k[-1], rtol=0, atol=0)  # same input to k = 0
+    assert not torch.equal(record[False].sample, record[True].sample)
+    with pytest.raises(ValueError, match="guide_last_step"):
+        guidance.guided_samples(model, cond, objective_for, alpha=0.1, guide_last_step=1, generator=torch.Generator())
+
+
+def test_each_field_variant_carries_its_guidance_step_size():
+    table = field_module.GUIDANCE_ALPHA_BY_VARIANT
+    variants = {"offset": {}, "distance": {"output": "distance"}, "human frame": {"frame": "human"},
+                "5 frames": {"n_frames": 5}}
+    for name, overrides in variants.items():
+        config = interaction_field_config("lift", "toy", **overrides)
+        assert field_module.field_variant(config) == name
+        assert config.guidance_alpha == table[name]  # visible in the config a chapter prints
+    # The share of anchors (Table 5) keeps the offset field's form, and its α.
+    assert interaction_field_config("sit", anchor_fraction=0.5).guidance_alpha == table["offset"]
+    assert interaction_field_config("sit", guidance_alpha=7).guidance_alpha == 7.0
+    with pytest.raises(ValueError, match="no step size was chosen"):
+        interaction_field_config("sit", n_frames=10)
+    with pytest.raises(ValueError, match="guidance_alpha"):
+        interaction_field_config("sit", guidance_alpha=0.0)
+
+
+def test_the_guidance_step_size_is_not_part_of_the_trained_fields_key(monkeypatch):
+    keys = []
+
+    def record(name, key, build, code=()):
+        keys.append(key)
+        raise RuntimeError("recorded")
+
+    monkeypatch.setattr(field_module, "load_or_build", record)
+
+    from types import SimpleNamespace
+
+    from hoi_tutorial.nifty.data import synthetic_data_config
+
+    dataset = SimpleNamespace(config=synthetic_data_config("sit"))  # only its config reaches the key
+    for alpha in (3.0, 30.0):
+        with pytest.raises(RuntimeError, match="recorded"):
+            field_module.trained_interaction_field(dataset, motion_model_config("sit"),
+                                                   _tiny_field_config(guidance_alpha=alpha))
+    assert keys[0] == keys[1] and "guidance_alpha" not in keys[0]["field"]

@@ -51,6 +51,12 @@ __all__ = [
     "evaluate_cond_vae",
     "CONTROLS",
     "evaluate_controls",
+    "default_alpha",
+    "ALPHA_GRID",
+    "AlphaSweep",
+    "guidance_alpha_sweep",
+    "build_alpha_sweep",
+    "chosen_alpha",
     "build_table1",
 ]
 
@@ -267,6 +273,28 @@ class GuidedEvaluation:
     alpha: float
 
 
+def default_alpha(field_config, objective: str = "field") -> float:
+    """The guidance step size α a variant guides with: its field's ``guidance_alpha``, or the
+    non-parametric field's ``guidance.GUIDANCE_ALPHA["nearest_anchor"]``."""
+    check_choice(objective, GUIDANCE_OBJECTIVES, "objective")
+    if objective == "nearest_anchor":
+        return float(guidance.GUIDANCE_ALPHA["nearest_anchor"])
+    if field_config is None:
+        raise ValueError("field_config: expected an InteractionFieldConfig for objective='field', got None")
+    return float(field_config.guidance_alpha)
+
+
+def _objective_for(dataset, model_config, field_config, objective: str, objects, device):
+    """``objective_for(cond, n_samples) -> G`` for scenes with these ``objects``: the trained field's
+    objective, or D.1's nearest anchor pose of the object (the anchors of each object's category)."""
+    if objective == "field":
+        field = interaction_field.trained_interaction_field(dataset, model_config, field_config, device=device).model
+        return functools.partial(guidance.field_objective, field)
+    allowed = torch.tensor([[a.obj.category == obj.category for a in dataset.training_anchors] for obj in objects])
+    return functools.partial(guidance.nearest_anchor_objective,
+                             guidance.anchor_simplified_poses(dataset.training_anchors), allowed=allowed)
+
+
 def evaluate_guided(dataset, model_config, field_config, config: Optional[EvaluationConfig] = None, *,
                     n_samples: int = 10, alpha: Optional[float] = None, n_scenes: Optional[int] = None,
                     objective: str = "field", device="cpu") -> GuidedEvaluation:
@@ -286,8 +314,9 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
         field_config: the ``nifty.interaction_field.InteractionFieldConfig`` of the field.
         config: an :class:`EvaluationConfig` (default: the toy preset).
         n_samples: candidates per scene, N (NIFTY: 10).
-        alpha: guidance step size (default ``guidance.GUIDANCE_ALPHA["field"]``); ``0`` samples without
-            guidance and only selects by the objective (the *selection only* control).
+        alpha: guidance step size (default: the field's ``field_config.guidance_alpha``, or
+            ``guidance.GUIDANCE_ALPHA["nearest_anchor"]``); ``0`` samples without guidance and only
+            selects by the objective (the *selection only* control).
         n_scenes: the first this many test scenes (default all).
         objective: ``"field"`` (NIFTY) or ``"nearest_anchor"`` (Table 3's non-parametric field).
         device: where to train (if needed) and sample.
@@ -298,7 +327,7 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
     if objective == "field" and field_config is None:
         raise ValueError("field_config: expected an InteractionFieldConfig for objective='field', got None")
     config = config or EvaluationConfig()
-    alpha = guidance.GUIDANCE_ALPHA["field"] if alpha is None else float(alpha)
+    alpha = default_alpha(field_config, objective) if alpha is None else float(alpha)
     unguided = evaluate_motion_model(dataset, model_config, config, device=device)
     scenes = unguided.test_scenes[:n_scenes] if n_scenes is not None else unguided.test_scenes
     if not scenes:
@@ -307,17 +336,7 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
     def build(start, stop):
         block = scenes[start:stop]
         model = motion_model.trained_motion_model(dataset, model_config, device=device).model
-        if objective == "field":
-            field = interaction_field.trained_interaction_field(dataset, model_config, field_config,
-                                                                device=device).model
-            objective_for = functools.partial(guidance.field_objective, field)
-        else:
-            # D.1: the nearest anchor pose of the object, i.e. of the scene's object category.
-            allowed = torch.tensor([[a.obj.category == s.obj.category for a in dataset.training_anchors]
-                                    for s in block])
-            objective_for = functools.partial(guidance.nearest_anchor_objective,
-                                              guidance.anchor_simplified_poses(dataset.training_anchors),
-                                              allowed=allowed)
+        objective_for = _objective_for(dataset, model_config, field_config, objective, [s.obj for s in block], device)
         cond, placement = _scene_conditions(block, model_config.n_points, config.seed)
         generator = torch.Generator().manual_seed(int(np.random.SeedSequence([config.seed, start]).generate_state(1)[0]))
         out = guidance.guided_samples(model, cond, objective_for, n_samples=n_samples, alpha=alpha, generator=generator,
@@ -445,3 +464,116 @@ def build_table1(data_config, model_config, field_config, vae_config, config: Op
     evaluate_guided(dataset, model_config, field_config, config, n_samples=n_samples, device=device)
     evaluate_controls(dataset, model_config, field_config, config, n_samples=n_samples, device=device)
     evaluate_cond_vae(dataset, model_config, vae_config, config, device=device)
+
+
+# --------------------------------------------------------------------------- choosing α (ours: NIFTY does not state it)
+
+# The step sizes the protocol tries, a factor of about 3 apart.
+ALPHA_GRID = (3.0, 10.0, 30.0, 100.0)
+
+
+@dataclass
+class AlphaSweep:
+    """What :func:`guidance_alpha_sweep` returns for one action and one variant.
+
+    Attributes:
+        alphas: the step sizes tried.
+        scores: ``{α: MotionScores}`` of the one guided sample per training condition.
+        objective: ``{α: (C,)}`` each sample's final guidance objective (m²).
+        guide_last_step: whether the last denoising step was guided too.
+    """
+
+    alphas: tuple
+    scores: dict
+    objective: dict
+    guide_last_step: bool
+
+    def summary(self) -> dict:
+        """``{α: {"G (m², median)", "skeleton distance (m, median)", "D2O ≤ 2 cm"}}``."""
+        return {alpha: {"G (m², median)": float(np.median(self.objective[alpha])),
+                        "skeleton distance (m, median)": float(np.median(self.scores[alpha].skeleton_distance)),
+                        "D2O ≤ 2 cm": float(np.mean(self.scores[alpha].d2o <= 0.02))}
+                for alpha in self.alphas}
+
+
+def guidance_alpha_sweep(dataset, model_config, field_config, config: Optional[EvaluationConfig] = None, *,
+                         alphas: Sequence[float] = ALPHA_GRID, objective: str = "field", guide_last_step: bool = False,
+                         device="cpu") -> AlphaSweep:
+    """The protocol that chooses a variant's guidance step size α (Eq. 4; NIFTY does not state α), once
+    (then from the cache).
+
+    For each α, one guided sample (N = 1: nothing selects) for each of the ``config.n_training``
+    training conditions :func:`evaluate_motion_model` samples (the training sequences' own starts and
+    objects, never a test scene), scored by :func:`evaluate_motions` against the training anchors.
+    :func:`chosen_alpha` reads the result; ``scripts/choose_guidance_alpha.py`` runs it for every variant.
+
+    Args:
+        dataset, model_config, field_config, config: as :func:`evaluate_guided` (``field_config`` ``None``
+            for ``objective="nearest_anchor"``; its ``guidance_alpha`` is not used).
+        alphas: the step sizes to try (each > 0).
+        objective: ``"field"`` or ``"nearest_anchor"``.
+        guide_last_step: guide the last denoising step too (``guidance.guided_samples``).
+        device: where to sample.
+    Returns:
+        an :class:`AlphaSweep`.
+    """
+    check_choice(objective, GUIDANCE_OBJECTIVES, "objective")
+    if objective == "field" and field_config is None:
+        raise ValueError("field_config: expected an InteractionFieldConfig for objective='field', got None")
+    alphas = tuple(float(a) for a in alphas)
+    if not alphas or not all(a > 0 for a in alphas):
+        raise ValueError(f"alphas: expected step sizes > 0, got {alphas!r}")
+    if not isinstance(guide_last_step, bool):
+        raise ValueError(f"guide_last_step: expected a bool, got {guide_last_step!r}")
+    config = config or EvaluationConfig()
+    unguided = evaluate_motion_model(dataset, model_config, config, device=device)
+    sequences = [dataset.sequences[i] for i in unguided.training_index]
+    objects = [s.obj for s in sequences]
+
+    def build():
+        model = motion_model.trained_motion_model(dataset, model_config, device=device).model
+        tensors = motion_model.InteractionTensors.from_sequences(sequences, model_config.max_frames,
+                                                                 model_config.n_points, model_config.seed)
+        cond = {name: tensors.condition()[name] for name in motion_model.CONDITION_KEYS}
+        objective_for = _objective_for(dataset, model_config, field_config, objective, objects, device)
+        out = {}
+        for alpha in alphas:
+            samples = guidance.guided_samples(model, cond, objective_for, n_samples=1, alpha=alpha,
+                                              generator=torch.Generator().manual_seed(config.seed),
+                                              guidance_scale=config.guidance_scale, guide_last_step=guide_last_step,
+                                              device=device)
+            motions = motion_model.states_to_motions(samples.states, cond["betas"], tensors.world_from_canonical)
+            scores = evaluate_motions(motions, objects, dataset.training_anchors, unguided.n_approach,
+                                      config.n_object_points, config.seed)
+            out[repr(alpha)] = {"metrics": scores.as_dict(), "objective": samples.objective.numpy()}
+        return out
+
+    field = None
+    if objective == "field":  # α is what is swept: the field's own is not part of the key
+        field = {name: value for name, value in dataclasses.asdict(field_config).items() if name != "guidance_alpha"}
+    key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config), "field": field,
+           "objective": objective, "evaluation": dataclasses.asdict(config), "alphas": list(alphas),
+           "guide_last_step": guide_last_step}
+    code = motion_model.model_code() + (sys.modules[__name__], scoring, interaction_field, guidance, body, metrics)
+    artifact = load_or_build(f"nifty_{dataset.config.action}_alpha_sweep", key, build, code=code)
+    return AlphaSweep(alphas=alphas, scores={a: MotionScores(**artifact[repr(a)]["metrics"]) for a in alphas},
+                      objective={a: np.asarray(artifact[repr(a)]["objective"]) for a in alphas},
+                      guide_last_step=guide_last_step)
+
+
+def build_alpha_sweep(data_config, model_config, field_config, config: Optional[EvaluationConfig] = None,
+                      **kwargs) -> None:
+    """:func:`guidance_alpha_sweep` for one action, built or loaded: for ``infra.warm_cache``."""
+    dataset = data.synthesize(data_config, progress=False)
+    guidance_alpha_sweep(dataset, model_config, field_config, config, **kwargs)
+
+
+def chosen_alpha(sweeps: Sequence[AlphaSweep]) -> float:
+    """The α whose samples end closest to the training anchors: the lowest median skeleton distance over
+    the training conditions of every sweep given (e.g. sit and lift), pooled. Ties go to the smaller α."""
+    sweeps = list(sweeps)
+    if not sweeps or any(s.alphas != sweeps[0].alphas for s in sweeps):
+        raise ValueError("sweeps: expected at least one AlphaSweep, all over the same alphas")
+    pooled = {alpha: float(np.median(np.concatenate([s.scores[alpha].skeleton_distance for s in sweeps])))
+              for alpha in sweeps[0].alphas}
+    return min(sweeps[0].alphas, key=lambda alpha: (pooled[alpha], alpha))

@@ -13,12 +13,16 @@ and keeps, per scene, the one whose final motion scores lowest (§4.1: N = 10;
 :func:`~hoi_tutorial.nn.diffusion.best_of_n`).
 
 The step size α is not given in the paper (guidance step sizes are tuned per objective, as in the
-Trace and Pace code NIFTY's Eq. 4 follows). ``GUIDANCE_ALPHA`` holds the toy value, chosen on
-training conditions, never on the test scenes: α ∈ {3, 10, 30, 100}, one guided sample for each of
-16 training conditions per action (seed 0). 30 gave the lowest final objective and skeleton distance
-for both sitting and lifting (sit: G 0.16 m², 1.73 m; lift: 0.42 m², 2.02 m); 100 overshoots (G above
-20 m²): the simplified pose follows the integrated root, so a pull on the last frame moves every
-frame's velocity at once.
+Trace and Pace code NIFTY's Eq. 4 follows). Each learned field carries its own
+(``InteractionFieldConfig.guidance_alpha``, chosen per variant); ``GUIDANCE_ALPHA`` holds the
+non-parametric field's. Every one is chosen by the same protocol, on training conditions, never on the
+test scenes (``nifty.evaluation.guidance_alpha_sweep``, ``scripts/choose_guidance_alpha.py``).
+
+Guidance runs on every denoising step but the last, as in the Trace and Pace code (§3.2 says "at every
+denoising step"; ``guide_last_step=True`` includes it). At k = 0 the sample *is* the guided prediction, with
+no later step to smooth the pull: on the 16 training conditions per action at α = 30 (seed 0), guiding the
+last step too raised the median skeleton distance from 1.68 to 2.57 m (sit) and from 3.45 to 6.14 m (lift)
+and lost 3 of 16 reaches in each (chapter 5 computes it).
 """
 from __future__ import annotations
 
@@ -42,8 +46,10 @@ __all__ = [
     "guided_samples",
 ]
 
-# Guidance step size α per objective at toy scale (ours; NIFTY does not state it; see the module docstring).
-GUIDANCE_ALPHA = {"field": 30.0}
+# The non-parametric field's guidance step size α at toy scale (ours; NIFTY does not state it). A learned field's is
+# its config's ``guidance_alpha`` (``interaction_field.GUIDANCE_ALPHA_BY_VARIANT``); the same protocol chose both
+# (pooled median skeleton distance, m, for α = 3 / 10 / 30 / 100: 5.48 / 2.66 / 1.99 / 28.5; seed 0).
+GUIDANCE_ALPHA = {"nearest_anchor": 30.0}
 
 
 def _repeat_rows(value: torch.Tensor, n: int) -> torch.Tensor:
@@ -174,7 +180,8 @@ class GuidedSamples:
 @single_threaded
 def guided_samples(model: NiftyMotionModel, cond: dict, objective_for: Optional[Callable] = None, *,
                    n_samples: int = 10, alpha: float = 1.0, generator: torch.Generator,
-                   guidance_scale: Optional[float] = None, device=None) -> GuidedSamples:
+                   guidance_scale: Optional[float] = None, guide_last_step: bool = False,
+                   device=None) -> GuidedSamples:
     """Draw ``n_samples`` guided samples per scene and keep the best by the final objective
     (NIFTY §4.1: "10 samples are generated in parallel and all are guided …; the sample with the best
     guidance objective score is used").
@@ -191,6 +198,8 @@ def guided_samples(model: NiftyMotionModel, cond: dict, objective_for: Optional[
             *selection only* control of chapter 6 (N unguided samples, the best by the same G).
         generator: ``torch.Generator`` for all noise.
         guidance_scale: classifier-free scale (default the model's).
+        guide_last_step: guide the last denoising step (k = 0) too (default: every step but the last,
+            as the Trace and Pace code).
         device: where to sample.
     Returns:
         :class:`GuidedSamples`.
@@ -199,12 +208,15 @@ def guided_samples(model: NiftyMotionModel, cond: dict, objective_for: Optional[
         raise ValueError(f"n_samples: expected a positive int, got {n_samples!r}")
     if isinstance(alpha, bool) or not isinstance(alpha, (int, float)) or not alpha >= 0:
         raise ValueError(f"alpha: expected a step size >= 0, got {alpha!r}")
+    if not isinstance(guide_last_step, bool):
+        raise ValueError(f"guide_last_step: expected a bool, got {guide_last_step!r}")
     batch = _check_cond(cond)
     guidance = None if objective_for is None else objective_for(cond, n_samples)
     # α = 0: x̃0 = x̂0 at every step (Eq. 4), so sample unguided and let G select.
     guide = guidance if alpha > 0 else None
+    steps = range(model.config.diffusion_steps) if guide_last_step else None  # None: k = K−1 … 1
     states = sample_motions(model, cond, generator=generator, guidance=guide, alpha=float(alpha) if guide else 0.0,
-                            n_samples=n_samples, guidance_scale=guidance_scale, device=device)
+                            n_samples=n_samples, guidance_scale=guidance_scale, guidance_steps=steps, device=device)
     states = states.reshape(batch, n_samples, *states.shape[1:])
     if guidance is None:
         values = torch.zeros(batch, n_samples)

@@ -525,12 +525,14 @@ def _repeat_rows(value: torch.Tensor, times: int) -> torch.Tensor:
 def sample_motions(model: NiftyMotionModel, cond: dict, config: Optional[MotionModelConfig] = None, *,
                    generator: torch.Generator, guidance: Optional[Callable[[torch.Tensor], torch.Tensor]] = None,
                    alpha=0.0, n_samples: int = 1, guidance_scale: Optional[float] = None,
-                   device=None) -> torch.Tensor:
+                   guidance_steps=None, device=None) -> torch.Tensor:
     """Draw motions for a batch of conditions (NIFTY §3.1 "Sampling and Guidance").
 
     Ancestral sampling from ``K`` steps with the classifier-free guided
     ``x̂0 = M(τ^k, k) + s (M(τ^k, k, C) − M(τ^k, k))`` and, when ``guidance`` is given,
-    reconstruction guidance ``x̃0 = x̂0 − α ∇_{τ^k} G(x̂0)`` (NIFTY Eq. 4) on every step but the last.
+    reconstruction guidance ``x̃0 = x̂0 − α ∇_{τ^k} G(x̂0)`` (NIFTY Eq. 4) on every step but the last
+    (``guidance_steps``; the Trace and Pace code NIFTY follows skips the last step, §3.2 says "at every
+    denoising step").
 
     Args:
         model: a trained :class:`NiftyMotionModel` (its device is used unless ``device`` is given).
@@ -543,6 +545,7 @@ def sample_motions(model: NiftyMotionModel, cond: dict, config: Optional[MotionM
         alpha: the guidance step size α (or a function ``k -> α``).
         n_samples: samples per condition (NIFTY: 10, the best kept by the guidance objective).
         guidance_scale: overrides ``config.guidance_scale`` (``s``; 1 = conditional, 0 = unconditional).
+        guidance_steps: the steps k that get guidance (default ``1 … K−1``; ``range(K)`` includes the last).
         device: where to sample.
     Returns:
         ``(B·n_samples, T, 336)`` states (un-normalised, each in its scene's canonical frame, on the
@@ -551,13 +554,14 @@ def sample_motions(model: NiftyMotionModel, cond: dict, config: Optional[MotionM
         :func:`sample_motions_with_record` also keeps every denoising step.
     """
     return _sample_motions(model, cond, config, generator, guidance, alpha, n_samples, guidance_scale, device,
-                           with_record=False)
+                           with_record=False, guidance_steps=guidance_steps)
 
 
 @single_threaded
 def sample_motions_with_record(model: NiftyMotionModel, cond: dict, config: Optional[MotionModelConfig] = None, *,
                                generator: torch.Generator, guidance=None, alpha=0.0, n_samples: int = 1,
-                               guidance_scale: Optional[float] = None, device=None) -> SamplingRecord:
+                               guidance_scale: Optional[float] = None, guidance_steps=None,
+                               device=None) -> SamplingRecord:
     """:func:`sample_motions`, keeping each denoising step (for plots).
 
     Same arguments and noise draws as :func:`sample_motions`. Returns a
@@ -566,11 +570,11 @@ def sample_motions_with_record(model: NiftyMotionModel, cond: dict, config: Opti
     are in the model's standardised space (``model.denormalise`` maps them to states).
     """
     return _sample_motions(model, cond, config, generator, guidance, alpha, n_samples, guidance_scale, device,
-                           with_record=True)
+                           with_record=True, guidance_steps=guidance_steps)
 
 
 def _sample_motions(model, cond, config, generator, guidance, alpha, n_samples, guidance_scale, device,
-                    with_record: bool):
+                    with_record: bool, guidance_steps=None):
     if not isinstance(model, NiftyMotionModel):
         raise TypeError(f"model: expected a NiftyMotionModel, got {type(model).__name__}")
     config = model.config if config is None else config
@@ -597,7 +601,7 @@ def _sample_motions(model, cond, config, generator, guidance, alpha, n_samples, 
 
     run = sample_with_record if with_record else sample
     out = run(x0_fn, shape, config.noise_schedule().to(device), generator=generator, guidance=objective,
-              alpha=alpha, device=device)
+              alpha=alpha, guidance_steps=guidance_steps, device=device)
     model.train(was_training)
     if with_record:
         return dataclasses.replace(out, sample=model.denormalise(out.sample).detach().cpu())
