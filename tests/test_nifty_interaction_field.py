@@ -346,3 +346,25 @@ def test_the_guidance_step_size_is_not_part_of_the_trained_fields_key(monkeypatc
             field_module.trained_interaction_field(dataset, motion_model_config("sit"),
                                                    _tiny_field_config(guidance_alpha=alpha))
     assert keys[0] == keys[1] and "guidance_alpha" not in keys[0]["field"]
+
+
+def test_field_training_runs_on_one_thread(sit_tensors, monkeypatch):
+    # A chapter's kernel (two torch threads) and a warm_cache worker (one) must train the same field.
+    _, tensors = sit_tensors
+    config = _tiny_field_config(steps=2)
+    pairs = field_training_pairs(_tiny_model(tensors), tensors, config)
+    seen = []
+
+    def spy(*args, **kwargs):
+        seen.append(torch.get_num_threads())
+        return real(*args, **kwargs)
+
+    real = field_module.train
+    monkeypatch.setattr(field_module, "train", spy)
+    threads = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        train_interaction_field(pairs, config)
+    finally:
+        torch.set_num_threads(threads)
+    assert seen == [1]

@@ -490,6 +490,7 @@ def _field_loss(field: InteractionField, poses, targets, points) -> torch.Tensor
     return (predicted - offsets.flatten(2).norm(dim=-1)).abs().mean()
 
 
+@single_threaded  # one thread wherever it runs: a chapter's kernel and a warm_cache worker train the same field
 def train_interaction_field(pairs: FieldTrainingPairs, config: InteractionFieldConfig, device="cpu",
                             progress: bool = False) -> tuple[InteractionField, TrainResult]:
     """Fit the field to the pairs with the L1 loss (NIFTY §3.2) and AdamW with a one-cycle schedule
