@@ -122,3 +122,27 @@ def test_an_nsm_like_model_runs_in_a_room_sensing_every_object(tasks):
         prediction_hidden=16, n_experts=2, model="nsm")).eval()
     result = pl.run_room_tasks(model, tasks, seconds=0.4, planning=False)
     assert result.rollout.states.shape == (2, 13, SAMP_STATE_SIZE)
+
+
+def test_the_path_switch_hands_over_to_the_action_once_the_rest_of_the_path_is_short(tasks):
+    task = tasks[0]
+    goals, waypoints = pl.goals_along_path(task, switch="path")
+    assert all(g[3] == 0.5 for g in goals[:-1])  # every walk goal passed within the waypoint radius
+    path_goals = pl.PathGoals.from_paths([goals], [waypoints], [task.room], action_radius=1.5)
+    legs = np.linalg.norm(np.diff(waypoints, axis=0), axis=1)
+    expected = np.r_[np.cumsum(legs[::-1])[::-1][1:], 0.0]  # goal k is waypoint k + 1; the spot has 0 left
+    np.testing.assert_allclose(path_goals.remaining[0, :len(goals) - 1].numpy(), expected, rtol=1e-5, atol=1e-5)
+    action, spot = len(goals) - 1, waypoints[-1]
+    start = torch.zeros(1, dtype=torch.int64)
+    # On the free segment just before the spot, with waypoints pending: the action takes over.
+    before = spot - 0.3 * (spot - waypoints[-2]) / np.linalg.norm(spot - waypoints[-2])
+    near = torch.tensor([[*before, 0.0]], dtype=torch.float32)
+    assert int(path_goals.advance(start, near)[0]) == action
+    # At the start (the whole path still ahead, longer than the radius): the walk goes on.
+    far = torch.tensor([[*waypoints[0], 0.0]], dtype=torch.float32)
+    assert legs.sum() > 1.5 and int(path_goals.advance(start, far)[0]) < action
+    # The waypoint rule needs the last waypoint first.
+    old_goals, old_points = pl.goals_along_path(task, switch="waypoints")
+    assert old_goals[-2][3] == 1.5
+    with pytest.raises(ValueError, match="switch"):
+        pl.goals_along_path(task, switch="seat")

@@ -251,3 +251,57 @@ def test_approach_point_agrees_with_the_rooms_own(seed):
     assert room.obstacle_distance(ours) >= room.body_radius
     with pytest.raises(ValueError, match="ground-plane"):
         planning.approach_point(room, positions[0], [0.0, 0.0, 1.0])
+
+
+class _GridRoom:
+    """A room given by its inflated grid alone (1 m cells, body radius 0): what the planning functions read."""
+
+    def __init__(self, blocked):
+        self.blocked = np.asarray(blocked, dtype=bool)
+        self.cell_size, self.body_radius = 1.0, 0.0
+        self.size = np.array([self.blocked.shape[1], self.blocked.shape[0]], dtype=float)
+
+    def inflated_occupancy(self, radius):
+        return self.blocked
+
+    def obstacle_distance(self, xy):
+        i, j = self.world_to_grid(xy)
+        return -1.0 if self.blocked[i, j] else 1.0
+
+    def world_to_grid(self, xy):
+        return np.floor(np.asarray(xy, dtype=float)[..., ::-1]).astype(np.int64)
+
+    def grid_to_world(self, ij):
+        return (np.asarray(ij)[..., ::-1].astype(float) + 0.5)
+
+
+def test_reaches_keeps_apart_regions_that_touch_only_at_a_corner():
+    # Free cells (0, 0)-(1, 1) and (2, 2)-(3, 3) meet at one corner: astar never steps across it.
+    blocked = np.ones((4, 4), dtype=bool)
+    blocked[:2, :2] = False
+    blocked[2:, 2:] = False
+    r = _GridRoom(blocked)
+    assert not planning.reaches(r, [[0.5, 0.5]], [3.5, 3.5])[0]
+    with pytest.raises(ValueError, match="unreachable"):
+        plan_path(r, (0.5, 0.5), (3.5, 3.5))
+    assert planning.reaches(r, [[0.5, 0.5], [1.5, 0.5]], [1.5, 1.5]).all()
+
+
+def test_simplify_waypoints_merges_short_legs_and_slight_turns_where_the_walk_is_free():
+    r = _GridRoom(np.zeros((10, 10), dtype=bool))
+    wiggly = np.array([[0.5, 0.5], [2.5, 0.6], [2.8, 0.7], [5.5, 0.5], [5.5, 5.5]])
+    out = planning.simplify_waypoints(r, wiggly, min_leg=0.5, min_turn_deg=20.0)
+    np.testing.assert_allclose(out[0], wiggly[0]) and np.testing.assert_allclose(out[-1], wiggly[-1])
+    legs = np.linalg.norm(np.diff(out, axis=0), axis=1)
+    assert legs.min() >= 0.5 and len(out) == 3  # the 0.3 m leg and the 2-4° turns are gone; the 90° turn stays
+    np.testing.assert_allclose(out[1], [5.5, 0.5])
+    # Rounding a block's corner (x < 6, y > 3) in two short legs: the chord cuts the block, so the two waypoints
+    # become the one corner where the lines of the legs before and after them meet.
+    blocked = np.zeros((10, 10), dtype=bool)
+    blocked[3:, :6] = True
+    rounded = np.array([[0.5, 2.5], [6.2, 2.7], [6.4, 3.1], [6.4, 9.5]])
+    assert not planning.straight_walk_is_free(_GridRoom(blocked), rounded[0], rounded[2])
+    out = planning.simplify_waypoints(_GridRoom(blocked), rounded, min_leg=0.5)
+    np.testing.assert_allclose(out, [[0.5, 2.5], [6.4, 2.5 + 0.2 * 5.9 / 5.7], [6.4, 9.5]], atol=1e-9)
+    with pytest.raises(ValueError, match="waypoints"):
+        planning.simplify_waypoints(r, wiggly[:1])

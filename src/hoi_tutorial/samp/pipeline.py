@@ -9,9 +9,14 @@ The algorithm box, as :func:`run_room_tasks` runs it:
    where the path turns (``planning.plan_path``).
 3. **Sub-tasks**: "each sub-task requires the character to walk to the next waypoint. The final
    sub-task requires the character to perform the desired action at the final waypoint." The
-   waypoints become walk goals passed within ``waypoint_radius``; once the character is within
-   ``action_radius`` of the standing spot, the goal becomes the sitting goal (the training clips walk
-   up to a seat with its goal from 2-4.5 m).
+   waypoints become walk goals passed in turn within ``waypoint_radius``; once the character is within
+   ``action_radius`` of the last one, the standing spot, the goal becomes the sitting goal
+   (``switch="waypoints"``, the paper's wording). ``switch="path"`` is the alternative chapter 14
+   measures: the waypoints simplified as a navigation mesh's corners would be
+   (``planning.simplify_waypoints``), and the sitting goal taking over as soon as the rest of the path
+   to the standing spot is shorter than ``action_radius`` and the straight walk there is free
+   (:class:`PathGoals`), whatever waypoints are still pending (the training clips walk up to a seat
+   under its goal from 2-4.5 m).
 4. **MotionNet** steps the character (``runtime.rollout``) with the target's voxels; the NSM-like model
    of Table 5 senses every object of the room instead (:func:`room_voxel_cells`, ``samp.sensor``).
 
@@ -31,17 +36,20 @@ from typing import Optional, Sequence
 import numpy as np
 import torch
 
-from .._validate import check_choice
+from .._validate import check_choice, check_shape
 from ..world.primitives import union_sdf
 from .core import GoalNetCVAE, MotionModel
 from .evaluation import measure_goal_runs
 from .goalnet import sample_goals
 from .motion_data import object_voxel_cells
-from .planning import check_room_point, plan_path, reaches
+from .planning import check_room_point, plan_path, reaches, simplify_waypoints, straight_walk_is_free
 from .runtime import GoalSequence, Rollout, rollout, standing_state
 
-__all__ = ["RoomTask", "room_tasks", "goals_along_path", "room_voxel_cells", "RoomRunResults", "penetrating_frames",
-           "run_room_tasks"]
+__all__ = ["RoomTask", "room_tasks", "SWITCHES", "goals_along_path", "PathGoals", "room_voxel_cells", "RoomRunResults",
+           "penetrating_frames", "run_room_tasks"]
+
+# How the sitting goal takes over from the walk goals (see the module docstring).
+SWITCHES = ("waypoints", "path")
 
 
 @dataclass
@@ -120,30 +128,94 @@ def room_tasks(rooms: Sequence, seed: int = 0, min_distance: float = 2.0, goalne
 
 
 def goals_along_path(task: RoomTask, action: str = "sit", planning: bool = True, waypoint_radius: float = 0.5,
-                     action_radius: float = 1.5) -> tuple[list, Optional[np.ndarray]]:
+                     action_radius: float = 1.5, switch: str = "waypoints") -> tuple[list, Optional[np.ndarray]]:
     """The goal list of one run (``runtime.GoalSequence.from_lists`` rows) and its waypoints.
+
+    With ``switch="path"`` the waypoints are simplified (``planning.simplify_waypoints``, no leg shorter
+    than ``waypoint_radius`` where the walk allows it) and every walk goal, the standing spot included, is
+    passed within ``waypoint_radius``: :class:`PathGoals` hands over to the sitting goal earlier, by the
+    rest of the path. With ``switch="waypoints"`` the string-pulled waypoints are kept and the last walk
+    goal is passed within ``action_radius``.
 
     Returns:
         ``(goals, waypoints)``: goals as ``(position, direction, action, radius)``; waypoints ``(M, 2)``
-        of the A* path (None without planning).
+        of the path, start first and standing spot last (None without planning).
     """
     check_choice(action, ("sit",), "action")
+    check_choice(switch, SWITCHES, "switch")
     check_room_point(task.room, np.asarray(task.start_root, dtype=np.float64)[:2], "start")
     final = (task.goal_position, task.goal_direction, action, 0.0)
     if not planning:
         return [final], None
     spot = task.room.standing_point(task.goal_position, task.goal_direction)
-    path = plan_path(task.room, task.start_root[:2], spot)
+    points = plan_path(task.room, task.start_root[:2], spot).waypoints
+    if switch == "path":
+        points = simplify_waypoints(task.room, points, min_leg=waypoint_radius)
     goals = []
-    points = path.waypoints
     for k in range(1, len(points)):
         leg = points[k] - points[k - 1]
         norm = float(np.linalg.norm(leg))
         direction = np.r_[leg / norm, 0.0] if norm > 1e-9 else np.r_[task.goal_direction[:2], 0.0]
-        last = k == len(points) - 1
+        last = k == len(points) - 1 and switch == "waypoints"
         goals.append((np.r_[points[k], 0.0], direction, "walk", action_radius if last else waypoint_radius))
     goals.append(final)
     return goals, points
+
+
+@dataclass
+class PathGoals(GoalSequence):
+    """Walk goals along planned paths, then the action (SAMP §3.3's sub-tasks), where the action takes over
+    as soon as the rest of the path is short and free: from the root, the distance to a pending walk goal
+    plus the path length from it to the standing spot (the least over the pending goals) is below
+    ``action_radius``, and the straight walk from the root to the standing spot is free (``planning.line_of_sight`` on the room's grid inflated by
+    the body radius). Pending waypoints are then skipped. Otherwise walk goals pass within their radii, as
+    in :class:`~hoi_tutorial.samp.runtime.GoalSequence`.
+
+    Attributes (beyond ``GoalSequence``'s):
+        remaining: ``(B, G)`` metres, the path length from goal ``k`` to the standing spot (0 for the action).
+        action_radius: metres.
+        rooms: one room per character, for the line of sight.
+    """
+
+    remaining: Optional[torch.Tensor] = None
+    action_radius: float = 1.5
+    rooms: list = field(default_factory=list, repr=False)
+
+    def __post_init__(self):
+        super().__post_init__()
+        check_shape(self.remaining, tuple(self.positions.shape[:2]), "remaining")
+        if len(self.rooms) != self.positions.shape[0]:
+            raise ValueError(f"rooms: expected one room per character ({self.positions.shape[0]}), got {len(self.rooms)}")
+        self._blocked = [np.asarray(room.inflated_occupancy(room.body_radius), dtype=bool) for room in self.rooms]
+
+    @classmethod
+    def from_paths(cls, goals: list, waypoints: list, rooms: list, action_radius: float = 1.5) -> "PathGoals":
+        """From :func:`goals_along_path`'s goals and waypoints, one list entry per character."""
+        base = GoalSequence.from_lists(goals)
+        remaining = torch.zeros(base.radii.shape)
+        for b, points in enumerate(waypoints):
+            legs = np.linalg.norm(np.diff(np.asarray(points, dtype=np.float64), axis=0), axis=1)
+            after = np.cumsum(legs[::-1])[::-1]  # after[k]: from waypoint k to the spot
+            for k in range(len(points) - 1):  # goal k is waypoint k + 1
+                remaining[b, k] = float(after[k + 1]) if k + 1 < len(after) else 0.0
+        return cls(base.positions, base.directions, base.actions, base.radii, base.counts, remaining,
+                   float(action_radius), list(rooms))
+
+    def advance(self, index: torch.Tensor, roots: torch.Tensor) -> torch.Tensor:
+        index = super().advance(index, roots)
+        action = self.counts - 1
+        # The rest of the path through the nearest pending walk goal: a waypoint walked past outside its
+        # radius does not hold the action back.
+        goal = torch.arange(self.positions.shape[1])
+        pending = (goal[None] >= index[:, None]) & (goal[None] < action[:, None])
+        through = (roots[:, None, :2] - self.positions[:, :, :2]).norm(dim=-1) + self.remaining
+        rest = torch.where(pending, through, torch.full_like(through, math.inf)).min(dim=1).values
+        index = index.clone()
+        for b in torch.nonzero((index < action) & (rest < self.action_radius)).flatten().tolist():
+            spot = self.positions[b, action[b] - 1, :2].double().numpy()
+            if straight_walk_is_free(self.rooms[b], roots[b, :2].double().numpy(), spot, blocked=self._blocked[b]):
+                index[b] = action[b]
+        return index
 
 
 def penetrating_frames(room, joints: np.ndarray, tolerance: float = 0.02) -> np.ndarray:
@@ -207,14 +279,24 @@ class RoomRunResults:
 
 def run_room_tasks(model: MotionModel, tasks: Sequence[RoomTask], seconds: float = 30.0, seed: int = 0,
                    planning: bool = True, latent_scale: float = 1.0, settle: float = 1.5,
-                   reach_radius: float = 0.3) -> RoomRunResults:
-    """Run the tasks as one batch, with or without path planning, and measure them (module docstring)."""
+                   reach_radius: float = 0.3, switch: str = "waypoints", action_radius: float = 1.5) -> RoomRunResults:
+    """Run the tasks as one batch, with or without path planning, and measure them (module docstring).
+
+    ``switch`` (with planning): ``"path"``, the sitting goal takes over by the rest of the path
+    (:class:`PathGoals`), or ``"waypoints"``, after every waypoint (:func:`goals_along_path`), within
+    ``action_radius`` metres.
+    """
     if not tasks:
         raise ValueError("tasks: expected at least one RoomTask")
+    check_choice(switch, SWITCHES, "switch")
     fps = 30.0
     n_frames = int(round(seconds * fps))
-    plans = [goals_along_path(t, planning=planning) for t in tasks]
-    goals = GoalSequence.from_lists([g for g, _ in plans])
+    plans = [goals_along_path(t, planning=planning, switch=switch, action_radius=action_radius) for t in tasks]
+    if planning and switch == "path":
+        goals = PathGoals.from_paths([g for g, _ in plans], [w for _, w in plans], [t.room for t in tasks],
+                                     action_radius)
+    else:
+        goals = GoalSequence.from_lists([g for g, _ in plans])
     centres, occupancy = room_voxel_cells(tasks, every_object=model.environment_sensor)
     roots = torch.as_tensor(np.stack([t.start_root for t in tasks]), dtype=torch.float32)
     out = rollout(model, standing_state(), roots, goals, n_frames, torch.Generator().manual_seed(int(seed)),

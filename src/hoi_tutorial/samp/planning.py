@@ -16,6 +16,8 @@ At toy scale the walkable area is the room's grid inflated by the body radius
   staircase corners a grid path has and a navigation mesh's corner path does not (it stands in for
   the funnel step of Unity's navmesh, Appendix E footnote: docs.unity3d.com/Manual/nav-InnerWorkings.html);
 - :func:`plan_path`: start and goal in metres → :class:`PlannedPath` (cells, points, waypoints);
+- :func:`simplify_waypoints`: the waypoints as a navigation mesh's corner path has them: no leg shorter than
+  the radius a walk goal is passed within, no turn under ``MIN_TURN_DEG`` (where the straight walk is free);
 - :func:`draw_path`: the room from above with the path and its waypoints.
 
 Grid convention (``hoi_tutorial.world.scenes``): cell ``(i, j)`` is row ``i`` along +y, column ``j``
@@ -44,11 +46,17 @@ __all__ = [
     "approach_point",
     "check_room_point",
     "plan_path",
+    "MIN_TURN_DEG",
+    "straight_walk_is_free",
+    "simplify_waypoints",
     "reaches",
     "draw_path",
 ]
 
 SQRT2 = math.sqrt(2.0)
+# The smallest change of direction kept as a waypoint by simplify_waypoints, degrees (ours; SAMP's waypoints are the
+# corners of Unity's navmesh path, whose polygons are larger than a grid's cells and leave no such wiggles).
+MIN_TURN_DEG = 20.0
 
 
 # ----------------------------------------------------------------------------- checks
@@ -375,12 +383,16 @@ def approach_point(room, goal_position, goal_direction, *, radius: Optional[floa
 def reaches(room, starts, goal, *, radius: Optional[float] = None) -> np.ndarray:
     """``(n,)`` bool: which of ``starts (n, 2)`` (xy metres) :func:`plan_path` can join to ``goal``.
 
-    One labelling of the 8-connected free cells (``scipy.ndimage.label``) answers for every start;
+    One labelling of the free cells as :func:`astar` connects them (``scipy.ndimage.label``, 4-connected: a
+    diagonal step needs both side cells free) answers for every start;
     a start or goal inside an inflated obstacle or outside the room reaches nothing.
     """
     radius = float(room.body_radius if radius is None else radius)
     blocked = np.asarray(room.inflated_occupancy(radius), dtype=bool)
-    components, _ = ndimage.label(~blocked, structure=np.ones((3, 3), dtype=bool))
+    # astar steps diagonally only when both cells beside the step are free, so two cells it can join are joined
+    # along the axes too: its regions are the 4-connected ones (ndimage's default structure). Two regions that
+    # touch only at a corner are apart.
+    components, _ = ndimage.label(~blocked)
 
     def cell_of(xy, name):
         try:
@@ -450,6 +462,92 @@ def plan_path(room, start, goal, *, radius: Optional[float] = None, shortcut: bo
         grid_cost=path_cost(path) * float(room.cell_size),
         radius=radius,
     )
+
+
+def straight_walk_is_free(room, a, b, *, blocked: Optional[np.ndarray] = None, radius: Optional[float] = None) -> bool:
+    """Whether a body of ``radius`` (default ``room.body_radius``) can walk straight from ``a`` to ``b`` (xy
+    metres): both points have its clearance and :func:`line_of_sight` joins their cells on the inflated grid
+    (``blocked``, computed when not given)."""
+    radius = float(room.body_radius if radius is None else radius)
+    if blocked is None:
+        blocked = np.asarray(room.inflated_occupancy(radius), dtype=bool)
+    try:
+        ca = _point_cell(room, blocked, np.asarray(a, dtype=np.float64), "a", radius)
+        cb = _point_cell(room, blocked, np.asarray(b, dtype=np.float64), "b", radius)
+    except ValueError:
+        return False
+    return line_of_sight(blocked, ca, cb)
+
+
+def simplify_waypoints(room, waypoints, *, min_leg: float = 0.5, min_turn_deg: float = MIN_TURN_DEG,
+                       radius: Optional[float] = None) -> np.ndarray:
+    """The waypoints of a planned path as a navigation mesh's corner path would give them (SAMP Appendix E).
+
+    String pulling on a grid (:func:`shortcut_waypoints`) leaves the rounded corners of the inflated obstacles
+    as runs of corners a few cells apart (in the toy rooms the median leg was 0.3 m, most legs shorter than the
+    0.5 m within which a walk goal is passed); a navmesh, whose obstacles are polygons, turns once at such a
+    corner. Repeatedly, the first interior waypoint with a leg beside it shorter than ``min_leg`` or a turn under
+    ``min_turn_deg``:
+
+    1. is dropped when the straight walk between its neighbours is free (:func:`line_of_sight` on the grid
+       inflated by the body radius); else,
+    2. with the next waypoint, when the leg between them is short, is replaced by the one corner where the
+       lines of the legs before and after them meet, when that corner has the body's clearance and both new
+       legs are free; else it stays.
+
+    Every step removes a waypoint, so it ends; the first and last waypoints stay.
+
+    Args:
+        room: the :class:`~hoi_tutorial.world.scenes.Room` the path was planned in.
+        waypoints: ``(M, 2)`` metres, e.g. :attr:`PlannedPath.waypoints`.
+        min_leg: metres, the shortest leg kept where the walk allows it: the radius a walk goal is passed within.
+        min_turn_deg: the smallest turn kept, degrees.
+        radius: the body radius the grid is inflated by (default ``room.body_radius``).
+    Returns:
+        ``(M', 2)`` metres, ``M' <= M``, the same first and last waypoint.
+    """
+    points = np.asarray(waypoints, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 2 or len(points) < 2 or not np.all(np.isfinite(points)):
+        raise ValueError(f"waypoints: expected (M, 2) finite metres with M >= 2, got shape {points.shape}")
+    if not (min_leg >= 0 and 0 <= min_turn_deg <= 180):
+        raise ValueError(f"min_leg, min_turn_deg: expected >= 0 metres and 0-180 degrees, got {min_leg}, {min_turn_deg}")
+    radius = float(room.body_radius if radius is None else radius)
+    blocked = np.asarray(room.inflated_occupancy(radius), dtype=bool)
+
+    def free_walk(a, b):
+        return straight_walk_is_free(room, a, b, blocked=blocked, radius=radius)
+
+    def turn_deg(a, p, b):
+        u, v = p - a, b - p
+        cosine = float(u @ v) / max(float(np.linalg.norm(u) * np.linalg.norm(v)), 1e-12)
+        return math.degrees(math.acos(min(1.0, max(-1.0, cosine))))
+
+    def corner(a, p, q, b):  # where the line a→p meets the line q→b, or None
+        d1, d2 = p - a, b - q
+        det = d1[0] * (-d2[1]) + d2[0] * d1[1]
+        if abs(det) < 1e-9:
+            return None
+        t = ((q - a)[0] * (-d2[1]) + d2[0] * (q - a)[1]) / det
+        x = a + t * d1
+        return x if t > 0 and np.linalg.norm(x - p) <= 2 * min_leg else None
+
+    pts = [p for p in points]
+    while True:
+        for k in range(1, len(pts) - 1):
+            a, p, b = pts[k - 1], pts[k], pts[k + 1]
+            short_next = np.linalg.norm(b - p) < min_leg
+            if not (np.linalg.norm(p - a) < min_leg or short_next or turn_deg(a, p, b) < min_turn_deg):
+                continue
+            if free_walk(a, b):
+                del pts[k]
+                break
+            if short_next and k + 2 < len(pts):
+                x = corner(a, p, b, pts[k + 2])
+                if x is not None and free_walk(a, x) and free_walk(x, pts[k + 2]):
+                    pts[k:k + 2] = [x]
+                    break
+        else:
+            return np.stack(pts)
 
 
 def draw_path(room, path: PlannedPath, ax=None):
