@@ -88,7 +88,7 @@ def main(argv=None):
         sweeps = _run_all(pool, _sweep, {(a, name): (a, args.scale, args.seed, overrides, objective,
                                                      evaluation.ALPHA_GRID, False)
                                          for name, (overrides, objective) in VARIANTS.items() for a in ACTIONS})
-        offset_alpha = fields.interaction_field_config("sit", args.scale, seed=args.seed).guidance_alpha
+        offset_alpha = fields.interaction_field_config("sit", args.scale, seed=args.seed).alpha
         last = _run_all(pool, _sweep, {(a, flag): (a, args.scale, args.seed, {}, "field", (offset_alpha,), flag)
                                        for a in ACTIONS for flag in (False, True)})
 
@@ -102,7 +102,7 @@ def main(argv=None):
         table.index.name = "α"
         chosen = evaluation.chosen_alpha([sweeps[(a, name)] for a in ACTIONS])
         used = (guidance.GUIDANCE_ALPHA["nearest_anchor"] if overrides is None else
-                fields.interaction_field_config("sit", args.scale, seed=args.seed, **overrides).guidance_alpha)
+                fields.interaction_field_config("sit", args.scale, seed=args.seed, **overrides).alpha)
         print(f"== {name}: the protocol chooses α = {chosen:g}; the library uses α = {used:g}")
         print(table.round(3).to_string(), "\n")
 

@@ -1,4 +1,5 @@
 """NIFTY's object interaction field (§3.2) and the guided sampling it drives (Eq. 4, §4.1)."""
+import dataclasses
 import functools
 
 import numpy as np
@@ -119,8 +120,7 @@ def test_object_frame_field_is_invariant_to_moving_person_and_object_together(si
     values = {}
     for frame in ("object", "human"):
         torch.manual_seed(0)
-        # No α was chosen for a human-frame distance field; this test does not guide with it.
-        field = InteractionField(_tiny_field_config(frame=frame, output=output, guidance_alpha=1.0)).eval()
+        field = InteractionField(_tiny_field_config(frame=frame, output=output)).eval()
         g = guidance.field_objective(field, cond)(states)
         g_moved = guidance.field_objective(field, moved_cond)(moved_states)
         values[frame] = (g, g_moved)
@@ -317,12 +317,15 @@ def test_each_field_variant_carries_its_guidance_step_size():
     for name, overrides in variants.items():
         config = interaction_field_config("lift", "toy", **overrides)
         assert field_module.field_variant(config) == name
-        assert config.guidance_alpha == table[name]  # visible in the config a chapter prints
+        assert config.alpha == table[name]  # visible in the config a chapter prints
     # The share of anchors (Table 5) keeps the offset field's form, and its α.
-    assert interaction_field_config("sit", anchor_fraction=0.5).guidance_alpha == table["offset"]
-    assert interaction_field_config("sit", guidance_alpha=7).guidance_alpha == 7.0
+    assert interaction_field_config("sit", anchor_fraction=0.5).alpha == table["offset"]
+    assert interaction_field_config("sit", guidance_alpha=7).alpha == 7.0
+    # Derived by replace, a config takes its new variant's α (none is stored for the old one).
+    five = dataclasses.replace(interaction_field_config("sit"), n_frames=5)
+    assert five.alpha == table["5 frames"]
     with pytest.raises(ValueError, match="no step size was chosen"):
-        interaction_field_config("sit", n_frames=10)
+        interaction_field_config("sit", n_frames=10).alpha
     with pytest.raises(ValueError, match="guidance_alpha"):
         interaction_field_config("sit", guidance_alpha=0.0)
 

@@ -281,7 +281,7 @@ def default_alpha(field_config, objective: str = "field") -> float:
         return float(guidance.GUIDANCE_ALPHA["nearest_anchor"])
     if field_config is None:
         raise ValueError("field_config: expected an InteractionFieldConfig for objective='field', got None")
-    return float(field_config.guidance_alpha)
+    return float(field_config.alpha)
 
 
 def _objective_for(dataset, model_config, field_config, objective: str, objects, device):
@@ -314,7 +314,7 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
         field_config: the ``nifty.interaction_field.InteractionFieldConfig`` of the field.
         config: an :class:`EvaluationConfig` (default: the toy preset).
         n_samples: candidates per scene, N (NIFTY: 10).
-        alpha: guidance step size (default: the field's ``field_config.guidance_alpha``, or
+        alpha: guidance step size (default: the field's ``field_config.alpha``, or
             ``guidance.GUIDANCE_ALPHA["nearest_anchor"]``); ``0`` samples without guidance and only
             selects by the objective (the *selection only* control).
         n_scenes: the first this many test scenes (default all).

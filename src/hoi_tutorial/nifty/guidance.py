@@ -14,7 +14,7 @@ and keeps, per scene, the one whose final motion scores lowest (§4.1: N = 10;
 
 The step size α is not given in the paper (guidance step sizes are tuned per objective, as in the
 Trace and Pace code NIFTY's Eq. 4 follows). Each learned field carries its own
-(``InteractionFieldConfig.guidance_alpha``, chosen per variant); ``GUIDANCE_ALPHA`` holds the
+(``InteractionFieldConfig.alpha``, chosen per variant); ``GUIDANCE_ALPHA`` holds the
 non-parametric field's. Every one is chosen by the same protocol, on training conditions, never on the
 test scenes (``nifty.evaluation.guidance_alpha_sweep``, ``scripts/choose_guidance_alpha.py``).
 

@@ -127,9 +127,9 @@ class InteractionFieldConfig:
             PyTorch's ``OneCycleLR`` defaults (NIFTY gives only the policy); ``warmup_steps`` 0
             rises for 30 % of the steps (its default ``pct_start``).
         seed: seeds the pairs (noise levels, noise, transforms), the weights and the batches.
-        guidance_alpha: the guidance step size α this field is used with (Eq. 4); ``None`` (the default)
-            takes its variant's from :data:`GUIDANCE_ALPHA_BY_VARIANT`. It does not change the field's
-            training, so it is left out of the trained field's cache key.
+        guidance_alpha: an explicit guidance step size α for this field (Eq. 4); ``None`` (the default):
+            its variant's, from :data:`GUIDANCE_ALPHA_BY_VARIANT`. Read the one in force as :attr:`alpha`.
+            It does not change the field's training, so it is left out of the trained field's cache key.
     """
 
     action: str = "sit"
@@ -160,16 +160,11 @@ class InteractionFieldConfig:
         check_choice(self.action, ("sit", "lift"), "action")
         check_choice(self.frame, FIELD_FRAMES, "frame")
         check_choice(self.output, FIELD_OUTPUTS, "output")
-        if self.guidance_alpha is None:
-            variant = field_variant(self)
-            if variant not in GUIDANCE_ALPHA_BY_VARIANT:
-                raise ValueError(f"guidance_alpha: no step size was chosen for the {variant!r} field (chosen: "
-                                 f"{sorted(GUIDANCE_ALPHA_BY_VARIANT)}); pass guidance_alpha=")
-            object.__setattr__(self, "guidance_alpha", GUIDANCE_ALPHA_BY_VARIANT[variant])
-        if isinstance(self.guidance_alpha, bool) or not isinstance(self.guidance_alpha, (int, float)) \
-                or not self.guidance_alpha > 0:
-            raise ValueError(f"guidance_alpha: expected a step size > 0, got {self.guidance_alpha!r}")
-        object.__setattr__(self, "guidance_alpha", float(self.guidance_alpha))
+        if self.guidance_alpha is not None:
+            if isinstance(self.guidance_alpha, bool) or not isinstance(self.guidance_alpha, (int, float)) \
+                    or not self.guidance_alpha > 0:
+                raise ValueError(f"guidance_alpha: expected a step size > 0 or None, got {self.guidance_alpha!r}")
+            object.__setattr__(self, "guidance_alpha", float(self.guidance_alpha))
         if not 0.0 < float(self.anchor_fraction) <= 1.0:
             raise ValueError(f"anchor_fraction: expected a share in (0, 1], got {self.anchor_fraction!r}")
         check_positive_ints(self, ("n_frames", "width", "layers", "heads", "copies_per_sequence", "steps",
@@ -178,6 +173,22 @@ class InteractionFieldConfig:
             raise ValueError(f"width: expected a multiple of heads={self.heads}, got {self.width}")
         if not 0.0 <= self.augment_fraction <= 1.0:
             raise ValueError(f"augment_fraction: expected a probability in [0, 1], got {self.augment_fraction!r}")
+
+    @property
+    def alpha(self) -> float:
+        """The guidance step size α this field guides with: ``guidance_alpha`` when given, else its variant's
+        (:data:`GUIDANCE_ALPHA_BY_VARIANT`, chosen on training conditions).
+
+        Raises:
+            ValueError: a variant no step size was chosen for, and no ``guidance_alpha`` given.
+        """
+        if self.guidance_alpha is not None:
+            return self.guidance_alpha
+        variant = field_variant(self)
+        if variant not in GUIDANCE_ALPHA_BY_VARIANT:
+            raise ValueError(f"guidance_alpha: no step size was chosen for the {variant!r} field (chosen: "
+                             f"{sorted(GUIDANCE_ALPHA_BY_VARIANT)}); pass guidance_alpha=")
+        return GUIDANCE_ALPHA_BY_VARIANT[variant]
 
 
 def field_variant(config: InteractionFieldConfig) -> str:
