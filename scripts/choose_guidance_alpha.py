@@ -15,8 +15,7 @@ It measures and never gates (exit code 0). Models, fields and sweeps are built o
     python scripts/choose_guidance_alpha.py --seed 1
 """
 import argparse
-import concurrent.futures
-import multiprocessing
+import functools
 import sys
 from pathlib import Path
 
@@ -26,8 +25,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from hoi_tutorial import intervals  # noqa: E402
-from hoi_tutorial.infra import available_cores  # noqa: E402
-from hoi_tutorial.nifty import data, evaluation, guidance  # noqa: E402
+from hoi_tutorial.infra import warm_cache  # noqa: E402
+from hoi_tutorial.nifty import data, evaluation  # noqa: E402
 from hoi_tutorial.nifty import interaction_field as fields  # noqa: E402
 from hoi_tutorial.nifty import motion_model as mm  # noqa: E402
 
@@ -42,55 +41,44 @@ VARIANTS = {
 }
 
 
-def _configs(action, scale, seed, overrides):
-    field = None if overrides is None else fields.interaction_field_config(action, scale, seed=seed, **overrides)
-    return (data.synthetic_data_config(action, scale, seed=seed), mm.motion_model_config(action, scale, seed=seed),
-            field, evaluation.evaluation_config(scale, seed=seed))
-
-
-def _prepare(action, scale, seed, overrides):
-    data_config, model_config, field_config, eval_config = _configs(action, scale, seed, overrides)
-    dataset = data.synthesize(data_config, progress=False)
-    evaluation.evaluate_motion_model(dataset, model_config, eval_config)
-    if field_config is not None:
-        fields.trained_interaction_field(dataset, model_config, field_config)
-
-
-def _sweep(action, scale, seed, overrides, objective, alphas, guide_last_step):
-    data_config, model_config, field_config, eval_config = _configs(action, scale, seed, overrides)
-    dataset = data.synthesize(data_config, progress=False)
-    return evaluation.guidance_alpha_sweep(dataset, model_config, field_config, eval_config, alphas=alphas,
-                                           objective=objective, guide_last_step=guide_last_step)
-
-
-def _one_thread():
-    import torch
-    torch.set_num_threads(1)  # one worker per core, one thread each (as infra.warm_cache's workers)
-
-
-def _run_all(pool, function, jobs):
-    futures = {key: pool.submit(function, *args) for key, args in jobs.items()}
-    return {key: future.result() for key, future in futures.items()}
-
-
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scale", default="toy")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
     pd.set_option("display.width", 160)
-    context = multiprocessing.get_context("spawn")
-    with concurrent.futures.ProcessPoolExecutor(available_cores(), mp_context=context, initializer=_one_thread) as pool:
-        # The data and motion models first (every variant shares them), then the fields, then the sweeps.
-        _run_all(pool, _prepare, {a: (a, args.scale, args.seed, None) for a in ACTIONS})
-        _run_all(pool, _prepare, {(a, name): (a, args.scale, args.seed, overrides) for a in ACTIONS
-                                  for name, (overrides, _) in VARIANTS.items() if overrides is not None})
-        sweeps = _run_all(pool, _sweep, {(a, name): (a, args.scale, args.seed, overrides, objective,
-                                                     evaluation.ALPHA_GRID, False)
-                                         for name, (overrides, objective) in VARIANTS.items() for a in ACTIONS})
-        offset_alpha = fields.interaction_field_config("sit", args.scale, seed=args.seed).alpha
-        last = _run_all(pool, _sweep, {(a, flag): (a, args.scale, args.seed, {}, "field", (offset_alpha,), flag)
-                                       for a in ACTIONS for flag in (False, True)})
+    data_configs = {a: data.synthetic_data_config(a, args.scale, seed=args.seed) for a in ACTIONS}
+    model_configs = {a: mm.motion_model_config(a, args.scale, seed=args.seed) for a in ACTIONS}
+    eval_config = evaluation.evaluation_config(args.scale, seed=args.seed)
+    field_configs = {(a, name): None if overrides is None else
+                     fields.interaction_field_config(a, args.scale, seed=args.seed, **overrides)
+                     for a in ACTIONS for name, (overrides, _) in VARIANTS.items()}
+    offset_alpha = field_configs[(ACTIONS[0], "offset (NIFTY)")].alpha
+    sweep_kwargs = {**{(a, name): dict(alphas=evaluation.ALPHA_GRID, objective=objective)
+                       for name, (_, objective) in VARIANTS.items() for a in ACTIONS},
+                    **{(a, every): dict(alphas=(offset_alpha,), guide_last_step=every)
+                       for a in ACTIONS for every in (False, True)}}
+
+    def field_of(key):
+        action, name = key
+        return field_configs[(action, "offset (NIFTY)" if isinstance(name, bool) else name)]
+
+    def call(key, builder):
+        return functools.partial(builder, data_configs[key[0]], model_configs[key[0]], field_of(key), eval_config,
+                                 **sweep_kwargs[key])
+
+    # Built one per core (infra.warm_cache): the models and their evaluations first (every variant shares them),
+    # then one sweep per field (each trains its field), then the last-step pair; then everything loads.
+    warm_cache([functools.partial(evaluation.build_evaluation, data_configs[a], model_configs[a], eval_config)
+                for a in ACTIONS])
+    grid = [key for key in sweep_kwargs if not isinstance(key[1], bool)]
+    warm_cache([call(key, evaluation.build_alpha_sweep) for key in grid])
+    warm_cache([call(key, evaluation.build_alpha_sweep) for key in sweep_kwargs if key not in grid])
+    datasets = {a: data.synthesize(data_configs[a], progress=False) for a in ACTIONS}
+    results = {key: evaluation.guidance_alpha_sweep(datasets[key[0]], model_configs[key[0]], field_of(key),
+                                                    eval_config, **kw) for key, kw in sweep_kwargs.items()}
+    sweeps = {key: results[key] for key in grid}
+    last = {key: results[key] for key in sweep_kwargs if key not in grid}
 
     print(f"Guidance step size per variant ({args.scale}, seed {args.seed}; 16 training conditions per action, "
           "one guided sample each)\n")
@@ -101,8 +89,7 @@ def main(argv=None):
             for alpha in evaluation.ALPHA_GRID]
         table.index.name = "α"
         chosen = evaluation.chosen_alpha([sweeps[(a, name)] for a in ACTIONS])
-        used = (guidance.GUIDANCE_ALPHA["nearest_anchor"] if overrides is None else
-                fields.interaction_field_config("sit", args.scale, seed=args.seed, **overrides).alpha)
+        used = evaluation.default_alpha(field_configs[(ACTIONS[0], name)], VARIANTS[name][1])
         print(f"== {name}: the protocol chooses α = {chosen:g}; the library uses α = {used:g}")
         print(table.round(3).to_string(), "\n")
 

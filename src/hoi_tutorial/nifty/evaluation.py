@@ -273,14 +273,18 @@ class GuidedEvaluation:
     alpha: float
 
 
-def default_alpha(field_config, objective: str = "field") -> float:
-    """The guidance step size α a variant guides with: its field's ``guidance_alpha``, or the
-    non-parametric field's ``guidance.GUIDANCE_ALPHA["nearest_anchor"]``."""
+def _check_objective(objective: str, field_config) -> None:
     check_choice(objective, GUIDANCE_OBJECTIVES, "objective")
+    if objective == "field" and field_config is None:
+        raise ValueError("field_config: expected an InteractionFieldConfig for objective='field', got None")
+
+
+def default_alpha(field_config, objective: str = "field") -> float:
+    """The guidance step size α a variant guides with: its field's ``alpha``, or the
+    non-parametric field's ``guidance.GUIDANCE_ALPHA["nearest_anchor"]``."""
+    _check_objective(objective, field_config)
     if objective == "nearest_anchor":
         return float(guidance.GUIDANCE_ALPHA["nearest_anchor"])
-    if field_config is None:
-        raise ValueError("field_config: expected an InteractionFieldConfig for objective='field', got None")
     return float(field_config.alpha)
 
 
@@ -323,9 +327,7 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
     Returns:
         a :class:`GuidedEvaluation`.
     """
-    check_choice(objective, GUIDANCE_OBJECTIVES, "objective")
-    if objective == "field" and field_config is None:
-        raise ValueError("field_config: expected an InteractionFieldConfig for objective='field', got None")
+    _check_objective(objective, field_config)
     config = config or EvaluationConfig()
     alpha = default_alpha(field_config, objective) if alpha is None else float(alpha)
     unguided = evaluate_motion_model(dataset, model_config, config, device=device)
@@ -517,14 +519,10 @@ def guidance_alpha_sweep(dataset, model_config, field_config, config: Optional[E
     Returns:
         an :class:`AlphaSweep`.
     """
-    check_choice(objective, GUIDANCE_OBJECTIVES, "objective")
-    if objective == "field" and field_config is None:
-        raise ValueError("field_config: expected an InteractionFieldConfig for objective='field', got None")
+    _check_objective(objective, field_config)
     alphas = tuple(float(a) for a in alphas)
     if not alphas or not all(a > 0 for a in alphas):
         raise ValueError(f"alphas: expected step sizes > 0, got {alphas!r}")
-    if not isinstance(guide_last_step, bool):
-        raise ValueError(f"guide_last_step: expected a bool, got {guide_last_step!r}")
     config = config or EvaluationConfig()
     unguided = evaluate_motion_model(dataset, model_config, config, device=device)
     sequences = [dataset.sequences[i] for i in unguided.training_index]
@@ -548,9 +546,8 @@ def guidance_alpha_sweep(dataset, model_config, field_config, config: Optional[E
             out[repr(alpha)] = {"metrics": scores.as_dict(), "objective": samples.objective.numpy()}
         return out
 
-    field = None
-    if objective == "field":  # α is what is swept: the field's own is not part of the key
-        field = {name: value for name, value in dataclasses.asdict(field_config).items() if name != "guidance_alpha"}
+    # α is what is swept: the field's own is not part of the key.
+    field = interaction_field.training_key(field_config) if objective == "field" else None
     key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config), "field": field,
            "objective": objective, "evaluation": dataclasses.asdict(config), "alphas": list(alphas),
            "guide_last_step": guide_last_step}

@@ -49,7 +49,7 @@ __all__ = [
 ]
 
 # The non-parametric field's guidance step size α at toy scale (ours; NIFTY does not state it). A learned field's is
-# its config's ``guidance_alpha`` (``interaction_field.GUIDANCE_ALPHA_BY_VARIANT``); the same protocol chose both
+# its config's ``alpha`` (``interaction_field.GUIDANCE_ALPHA_BY_VARIANT``); the same protocol chose both
 # (pooled median skeleton distance, m, for α = 3 / 10 / 30 / 100: 5.48 / 2.66 / 1.99 / 28.5; seed 0).
 GUIDANCE_ALPHA = {"nearest_anchor": 30.0}
 

@@ -60,6 +60,7 @@ __all__ = [
     "FIELD_OUTPUTS",
     "InteractionFieldConfig",
     "field_variant",
+    "training_key",
     "GUIDANCE_ALPHA_BY_VARIANT",
     "INTERACTION_FIELD_SCALES",
     "interaction_field_config",
@@ -203,6 +204,12 @@ def field_variant(config: InteractionFieldConfig) -> str:
     if config.n_frames > 1:
         parts.append(f"{config.n_frames} frames")
     return ", ".join(parts) or "offset"
+
+
+def training_key(config: InteractionFieldConfig) -> dict:
+    """The configuration a trained field depends on: every field but ``guidance_alpha``, which guides with the
+    field and does not change its training (a cache key's part)."""
+    return {name: value for name, value in dataclasses.asdict(config).items() if name != "guidance_alpha"}
 
 
 # What the larger scales change (paper: NIFTY §4.1's training, Appendix B's transformer sizes).
@@ -583,9 +590,8 @@ def trained_interaction_field(dataset, model_config, config: InteractionFieldCon
         return {"state": state_dict_to_cpu(field), "losses": torch.tensor(result.losses),
                 "seconds": float(result.seconds), "n_pairs": len(pairs), "zero_field_loss": float(zero)}
 
-    # α guides with the field; it does not change its training.
-    training = {name: value for name, value in dataclasses.asdict(config).items() if name != "guidance_alpha"}
-    key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config), "field": training}
+    key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config),
+           "field": training_key(config)}
     code = motion_model.model_code() + (sys.modules[__name__],) + tuple(
         importlib.import_module(name, __package__) for name in _FIELD_CODE)
     artifact = load_or_build(f"nifty_{config.action}_interaction_field", key, build, code=code)

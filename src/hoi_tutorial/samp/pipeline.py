@@ -167,8 +167,8 @@ class PathGoals(GoalSequence):
     """Walk goals along planned paths, then the action (SAMP §3.3's sub-tasks), where the action takes over
     as soon as the rest of the path is short and free: from the root, the distance to a pending walk goal
     plus the path length from it to the standing spot (the least over the pending goals) is below
-    ``action_radius``, and the straight walk from the root to the standing spot is free (``planning.line_of_sight`` on the room's grid inflated by
-    the body radius). Pending waypoints are then skipped. Otherwise walk goals pass within their radii, as
+    ``action_radius``, and the straight walk from the root to the standing spot is free
+    (``planning.straight_walk_is_free``). Pending waypoints are then skipped. Otherwise walk goals pass within their radii, as
     in :class:`~hoi_tutorial.samp.runtime.GoalSequence`.
 
     Attributes (beyond ``GoalSequence``'s):
@@ -195,9 +195,8 @@ class PathGoals(GoalSequence):
         remaining = torch.zeros(base.radii.shape)
         for b, points in enumerate(waypoints):
             legs = np.linalg.norm(np.diff(np.asarray(points, dtype=np.float64), axis=0), axis=1)
-            after = np.cumsum(legs[::-1])[::-1]  # after[k]: from waypoint k to the spot
-            for k in range(len(points) - 1):  # goal k is waypoint k + 1
-                remaining[b, k] = float(after[k + 1]) if k + 1 < len(after) else 0.0
+            to_spot = np.r_[np.cumsum(legs[::-1])[::-1], 0.0]  # from waypoint k to the spot
+            remaining[b, :len(legs)] = torch.as_tensor(to_spot[1:])  # walk goal k is waypoint k + 1
         return cls(base.positions, base.directions, base.actions, base.radii, base.counts, remaining,
                    float(action_radius), list(rooms))
 
