@@ -318,3 +318,13 @@ def test_action_frames_keep_the_labelled_frames_per_run():
     labels = samp_action_ids(clip.actions)
     assert len(sitting) == int((labels == SAMP_ACTIONS.index("sit")).sum()) > 0
     assert len(ev.action_frames(torch.stack([states, states]), "sit", per_run=5)) == 10
+
+
+def test_the_public_code_variant_restores_only_the_goal():
+    # SAMP_Training restores g^p, g^d, g^a of an own-prediction input; t̃^p, t̃^d stay the model's
+    mask = mn.goal_feature_mask()
+    for name in ("goal_positions", "goal_directions", "goal_actions"):
+        assert bool(mask[SAMP_STATE_LAYOUT[name]].all())
+    assert not bool(mask[SAMP_STATE_LAYOUT["goal_trajectory_positions"]].any())
+    assert not bool(mask[SAMP_STATE_LAYOUT["goal_trajectory_directions"]].any())
+    assert int(mask.sum()) == 21 + 21 + 35

@@ -8,6 +8,8 @@ Modules, in the order of the paper:
 - ``motion_data``: toy clips of the five actions as states (Eq. 1), roots, goals and voxels (§4.1).
 - ``augmentation``: a clip moved onto another object with its contacts kept, by projection and IK (§4.2, Supp. F).
 - ``motionnet``: MotionNet's training with scheduled sampling (Eq. 3, Eq. 5; Supp. D, G ablations).
+- ``goal_frame``: the state's goal features (Eq. 1) and the near-goal correction, recomputed from a
+  trajectory and a goal, shared by training (recomputed inputs) and the run-time loop.
 - ``runtime``: the decoder stepping characters from goal to goal (§3, §3.3).
 - ``evaluation``: goal tasks on unseen objects, execution time and precision (§5.2, Tables 2–3).
 - ``pipeline``: the whole pipeline in a cluttered room — A* sub-tasks, MotionNet, penetration (Fig. 2, §5.2).

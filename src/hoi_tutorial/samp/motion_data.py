@@ -68,6 +68,7 @@ __all__ = [
     "lie_facing",
     "root_displacement",
     "apply_root_displacement",
+    "as_complex",
     "object_voxel_cells",
     "voxels_in_root_frame",
     "MotionData",
@@ -226,12 +227,23 @@ def root_displacement(roots: torch.Tensor) -> torch.Tensor:
 
 
 def apply_root_displacement(root: torch.Tensor, displacement: torch.Tensor) -> torch.Tensor:
-    """Inverse of :func:`root_displacement` for one step: ``(..., 3)`` root, ``(..., 3)`` update -> new root."""
-    c, s = torch.cos(root[..., 2]), torch.sin(root[..., 2])
-    dx, dy = displacement[..., 0], displacement[..., 1]
-    world = torch.stack([c * dx - s * dy, s * dx + c * dy], dim=-1)
-    heading = torch.remainder(root[..., 2] + displacement[..., 2] + math.pi, 2 * math.pi) - math.pi
-    return torch.cat([root[..., :2] + world, heading[..., None]], dim=-1)
+    """Inverse of :func:`root_displacement` for one step: ``(..., 3)`` root, ``(..., 3)`` update -> new root.
+
+    The ground-plane step is turned into the world by the root's heading ``h``: with ``x + iy``
+    complex, ``xy' = xy + (dx + i dy) e^{ih}``.
+    """
+    turn = torch.polar(torch.ones_like(root[..., 2]), root[..., 2])  # e^{ih}
+    xy = as_complex(root[..., :2]) + as_complex(displacement[..., :2]) * turn
+    heading = torch.remainder(root[..., 2:] + displacement[..., 2:] + math.pi, 2 * math.pi) - math.pi
+    return torch.cat([torch.view_as_real(xy), heading], dim=-1)
+
+
+def as_complex(xy: torch.Tensor) -> torch.Tensor:
+    """``(..., 2)`` ground vectors as ``(...)`` complex numbers ``x + iy`` (a view where the memory allows)."""
+    strides = xy.stride()
+    if strides[-1] != 1 or xy.storage_offset() % 2 or any(s % 2 for s in strides[:-1]):
+        xy = xy.clone(memory_format=torch.contiguous_format)  # a complex view needs even offsets
+    return torch.view_as_complex(xy)
 
 
 # ----------------------------------------------------------------------------- voxels
@@ -264,10 +276,9 @@ def voxels_in_root_frame(centres: torch.Tensor, occupancy: torch.Tensor, roots: 
         centres, occupancy = centres.expand(B, -1, -1), occupancy.expand(B, -1)
     check_shape(centres, (B, None, 3), "centres")
     check_shape(occupancy, tuple(centres.shape[:2]), "occupancy")
-    d = centres[..., :2] - roots[:, None, :2]
-    c, s = torch.cos(roots[:, 2])[:, None], torch.sin(roots[:, 2])[:, None]
-    local = torch.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1], centres[..., 2]], dim=-1)
-    return torch.cat([local, occupancy[..., None]], dim=-1).reshape(B, -1)
+    turn = torch.polar(torch.ones_like(roots[:, 2:]), -roots[:, 2:])  # e^{−ih}, (B, 1)
+    local = torch.view_as_real((as_complex(centres[..., :2]) - as_complex(roots[:, None, :2])) * turn)
+    return torch.cat([local, centres[..., 2:], occupancy[..., None]], dim=-1).reshape(B, -1)
 
 
 # ----------------------------------------------------------------------------- clips and the data set

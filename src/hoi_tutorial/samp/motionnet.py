@@ -11,8 +11,9 @@ The algorithm box, as this module runs it:
    one coin per step for the whole batch (REFERENCE_NOTES); ``P`` follows Eq. 5 over the epochs
    (:func:`teacher_forcing_probability`). The prediction is already in the new root frame (our
    state is expressed in its own frame; the root update is predicted beside it). SAMP's public code
-   then replaces its goal features by the ground truth's ("the goal features of the input always
-   come from ground truth", REFERENCE_NOTES; ``own_inputs="ground_truth"``). By default we do what
+   then restores the goal ``g^p, g^d, g^a`` of the input from the ground truth ("the goal features of
+   the input always come from ground truth", REFERENCE_NOTES; the predicted ``t̃^p, t̃^d`` stay;
+   ``own_inputs="ground_truth"``). By default we do what
    the run-time loop does instead: move the root by the predicted update and recompute the goal
    features and the voxels from there (``own_inputs="recomputed"``), so the model learns from
    inputs that say where its own steps took it.
@@ -47,16 +48,17 @@ from ..infra import (TrainedModel, TrainerConfig, TrainResult, load_or_build, sc
                      state_dict_to_cpu, train)
 from ..nn.cvae import gaussian_kl
 from ..world.features import SAMP_STATE_LAYOUT, SAMP_STATE_SIZE
-from . import core, motion_data as motion_data_module
+from . import core, goal_frame, motion_data as motion_data_module
 from .core import MLPMotionModel, MotionModel, MotionNet
 from .motion_data import (ROOT_SIZE, MotionData, MotionDataConfig, apply_root_displacement, motion_data,
                           root_displacement)
-from .runtime import with_goal
+from .goal_frame import with_goal
 
 __all__ = [
     "MODEL_KINDS",
     "OUTPUT_SIZE",
     "GOAL_FEATURES",
+    "RESTORED_GOAL_FEATURES",
     "goal_feature_mask",
     "teacher_forcing_probability",
     "MotionNetConfig",
@@ -73,15 +75,18 @@ __all__ = [
 MODEL_KINDS = ("samp", "moe", "mlp", "nsm")
 OWN_INPUTS = ("recomputed", "ground_truth")
 OUTPUT_SIZE = SAMP_STATE_SIZE + ROOT_SIZE
-# The parts of X that come from the goal; kept from the ground truth in scheduled sampling.
-GOAL_FEATURES = ("goal_trajectory_positions", "goal_trajectory_directions", "goal_positions", "goal_directions",
-                 "goal_actions")
+# The parts of X computed from the goal (Eq. 1: t̃^p, t̃^d, g^p, g^d, g^a).
+GOAL_FEATURES = goal_frame.GOAL_FEATURES
+# The parts SAMP's public training code restores from the ground truth in an own-prediction input
+# (own_inputs="ground_truth"): the goal g^p, g^d, g^a; t̃^p and t̃^d stay the model's own.
+RESTORED_GOAL_FEATURES = ("goal_positions", "goal_directions", "goal_actions")
 
 
 def goal_feature_mask() -> torch.Tensor:
-    """``(437,)`` bool, True on the goal features of ``X`` (``GOAL_FEATURES``)."""
+    """``(437,)`` bool, True on the parts of ``X`` an own-prediction input takes from the ground truth
+    in the public code's variant (``RESTORED_GOAL_FEATURES``)."""
     mask = torch.zeros(SAMP_STATE_SIZE, dtype=torch.bool)
-    for name in GOAL_FEATURES:
+    for name in RESTORED_GOAL_FEATURES:
         mask[SAMP_STATE_LAYOUT[name]] = True
     return mask
 
@@ -118,7 +123,8 @@ class MotionNetConfig:
         epochs, c1, c2: passes over the windows, and Eq. 5's breakpoints in epochs (B.3: 100, 30, 60).
         batch_size, lr, grad_clip: optimisation (the paper's batch size is not stated).
         own_inputs: what an own-prediction input holds besides the prediction. ``"ground_truth"``:
-            the goal features and voxels of the ground truth (SAMP's public training code);
+            the ground truth's goal ``g^p, g^d, g^a`` and voxels (SAMP's public training code, which
+            restores those three from the data and keeps the predicted ``t̃^p, t̃^d``);
             ``"recomputed"``: the predicted root update is applied and the goal features and voxels
             are recomputed from the new root, as the run-time loop does (ours: with the ground
             truth's, the toy model never sees a goal feature that disagrees with where it went,
@@ -299,7 +305,7 @@ def trained_motion_model(data_config: MotionDataConfig, config: MotionNetConfig,
 
     key = {"data": dataclasses.asdict(data_config), "model": dataclasses.asdict(config)}
     artifact = load_or_build(f"samp_motion_{config.model}", key, build,
-                             code=(core, motion_data_module, sys.modules[__name__]))
+                             code=(core, goal_frame, motion_data_module, sys.modules[__name__]))
     model = build_motion_model(config)
     model.load_state_dict(artifact["state"])
     details = {name: artifact[name] for name in ("n_frames", "n_windows", "steps", "reconstruction", "kl")}

@@ -31,6 +31,9 @@ from ..world import mocap
 from ..world.features import SAMP_ACTIONS, SAMP_SAMPLE_OFFSETS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE, samp_pose_state
 from ..world.skeleton import NUM_JOINTS
 from .core import MotionModel
+from .goal_frame import (CURRENT_SAMPLE, LocalGoal, correct_towards_goal, goal_features, local_goal, recomputed_state,
+                         unit, with_goal)
+from .motion_data import as_complex
 from .motion_data import apply_root_displacement, voxels_in_root_frame
 from .sensor import sensor_voxels
 
@@ -47,128 +50,11 @@ __all__ = [
 ]
 
 _NS, _NA = len(SAMP_SAMPLE_OFFSETS), len(SAMP_ACTIONS)
-CURRENT_SAMPLE = SAMP_SAMPLE_OFFSETS.index(0.0)  # the trajectory sample at the current frame
 
 
 def _rotate(xy: torch.Tensor, angle: torch.Tensor) -> torch.Tensor:
     """Rotate ``(..., 2)`` vectors by ``angle (...)`` about +Z."""
-    c, s = torch.cos(angle), torch.sin(angle)
-    return torch.stack([c * xy[..., 0] - s * xy[..., 1], s * xy[..., 0] + c * xy[..., 1]], dim=-1)
-
-
-def _heading_of(forward_xy: torch.Tensor) -> torch.Tensor:
-    """Heading (0 faces +Y) of ``(..., 2)`` forward vectors."""
-    return torch.atan2(-forward_xy[..., 0], forward_xy[..., 1])
-
-
-def goal_features(trajectory_positions: torch.Tensor, trajectory_directions: torch.Tensor,
-                  goal_position: torch.Tensor, goal_direction: torch.Tensor, goal_action: torch.Tensor) -> dict:
-    """The goal features of Eq. 1 from a trajectory and a goal, all in the current root frame.
-
-    The same quantities as ``world.features.samp_pose_state`` computes from a whole clip, here from
-    the state's own trajectory samples (what the run-time loop has).
-
-    Args:
-        trajectory_positions: ``(B, 14)`` ``t^p``, the 7 samples' ground positions (x, y).
-        trajectory_directions: ``(B, 14)`` ``t^d``, their forward directions (normalised here).
-        goal_position: ``(B, 3)`` the goal in the root frame (m).
-        goal_direction: ``(B, 3)`` its facing in the root frame (the ground-plane part is used).
-        goal_action: ``(B,)`` int64 index into ``SAMP_ACTIONS``.
-    Returns:
-        dict of ``goal_trajectory_positions (B, 14)``, ``goal_trajectory_directions (B, 14)``,
-        ``goal_positions (B, 21)``, ``goal_directions (B, 21)``, ``goal_actions (B, 35)``.
-    """
-    B = trajectory_positions.shape[0]
-    check_shape(trajectory_positions, (B, 2 * _NS), "trajectory_positions")
-    check_shape(trajectory_directions, (B, 2 * _NS), "trajectory_directions")
-    check_shape(goal_position, (B, 3), "goal_position")
-    check_shape(goal_direction, (B, 3), "goal_direction")
-    origin = trajectory_positions.reshape(B, _NS, 2)
-    forward = trajectory_directions.reshape(B, _NS, 2)
-    forward = forward / forward.norm(dim=-1, keepdim=True).clamp_min(1e-6)
-    sample_heading = _heading_of(forward)  # (B, S)
-    goal_flat = goal_direction[:, :2] / goal_direction[:, :2].norm(dim=-1, keepdim=True).clamp_min(1e-6)
-    goal_heading = _heading_of(goal_flat)[:, None]  # (B, 1)
-    rel_goal = origin - goal_position[:, None, :2]
-    parts = {
-        "goal_trajectory_positions": _rotate(rel_goal, -goal_heading).reshape(B, -1),
-        "goal_trajectory_directions": _rotate(forward, -goal_heading).reshape(B, -1),
-    }
-    to_goal = goal_position[:, None, :2] - origin
-    height = goal_position[:, None, 2:].expand(B, _NS, 1)
-    parts["goal_positions"] = torch.cat([_rotate(to_goal, -sample_heading), height], -1).reshape(B, -1)
-    direction = torch.cat([goal_flat, torch.zeros_like(goal_flat[:, :1])], dim=-1)[:, None].expand(B, _NS, 3)
-    parts["goal_directions"] = torch.cat([_rotate(direction[..., :2], -sample_heading), direction[..., 2:]], -1).reshape(B, -1)
-    one_hot = torch.nn.functional.one_hot(as_tensor(goal_action, "goal_action").long(), _NA).to(trajectory_positions.dtype)
-    parts["goal_actions"] = one_hot[:, None].expand(B, _NS, _NA).reshape(B, -1)
-    return parts
-
-
-def _to_root_frame(roots: torch.Tensor, position: torch.Tensor, direction: torch.Tensor):
-    """A world goal ``(B, 3)``, ``(B, 3)`` seen from ``roots (B, 3)``."""
-    local = position.clone()
-    local[:, :2] = _rotate(position[:, :2] - roots[:, :2], -roots[:, 2])
-    turned = direction.clone()
-    turned[:, :2] = _rotate(direction[:, :2], -roots[:, 2])
-    return local, turned
-
-
-def correct_towards_goal(states: torch.Tensor, roots: torch.Tensor, goal_position: torch.Tensor,
-                         goal_direction: torch.Tensor, sharpness: float = 100.0) -> torch.Tensor:
-    """Blend the future trajectory samples towards the network's own goal-relative prediction of them.
-
-    SAMP's public run-time code (inherited from the Neural State Machine) reads the predicted
-    trajectory twice: as ``t^p, t^d`` in the root frame and as ``t̃^p, t̃^d`` in the goal's frame.
-    Close to the goal it trusts the second, which is anchored on the goal: future sample ``k``
-    (``k = 1 … 3`` after the current one) moves to the goal-frame prediction with weight
-    ``(k / 4)^(sharpness · d_k²)``, ``d_k`` the sample's distance to the goal (m). Far from the goal
-    the weight vanishes; on the goal it is ``k / 4``.
-
-    Args:
-        states: ``(B, 437)`` predicted states (root frame of ``roots``).
-        roots, goal_position, goal_direction: ``(B, 3)`` world.
-        sharpness: the exponent's scale (the public code's 100 per m²).
-    Returns:
-        ``(B, 437)`` with ``t^p, t^d`` of the future samples corrected.
-    """
-    B = states.shape[0]
-    goal, direction = _to_root_frame(roots, goal_position, goal_direction)
-    goal_heading = _heading_of(direction[:, :2] / direction[:, :2].norm(dim=-1, keepdim=True).clamp_min(1e-6))
-    positions = states[:, SAMP_STATE_LAYOUT["trajectory_positions"]].reshape(B, _NS, 2)
-    forwards = states[:, SAMP_STATE_LAYOUT["trajectory_directions"]].reshape(B, _NS, 2)
-    in_goal_p = states[:, SAMP_STATE_LAYOUT["goal_trajectory_positions"]].reshape(B, _NS, 2)
-    in_goal_d = states[:, SAMP_STATE_LAYOUT["goal_trajectory_directions"]].reshape(B, _NS, 2)
-    anchored_p = _rotate(in_goal_p, goal_heading[:, None]) + goal[:, None, :2]
-    anchored_d = _rotate(in_goal_d, goal_heading[:, None])
-    future = torch.arange(_NS) > CURRENT_SAMPLE
-    k = (torch.arange(_NS) - CURRENT_SAMPLE).clamp_min(0).to(states.dtype) / (_NS - CURRENT_SAMPLE)
-    distance = (positions - goal[:, None, :2]).norm(dim=-1)
-    weight = torch.where(future, k.pow(sharpness * distance.square()), torch.zeros_like(distance))[..., None]
-    out = states.clone()
-    out[:, SAMP_STATE_LAYOUT["trajectory_positions"]] = torch.lerp(positions, anchored_p, weight).reshape(B, -1)
-    blended = torch.lerp(forwards, anchored_d, weight)
-    out[:, SAMP_STATE_LAYOUT["trajectory_directions"]] = (blended / blended.norm(dim=-1, keepdim=True).clamp_min(1e-6)).reshape(B, -1)
-    return out
-
-
-def with_goal(states: torch.Tensor, roots: torch.Tensor, goal_position: torch.Tensor, goal_direction: torch.Tensor,
-              goal_action: torch.Tensor) -> torch.Tensor:
-    """``states (B, 437)`` with their goal features recomputed for a world goal.
-
-    Args:
-        roots: ``(B, 3)`` ``(x, y, heading)`` of the states' root frames.
-        goal_position, goal_direction: ``(B, 3)`` world; goal_action: ``(B,)`` ids.
-    """
-    check_shape(states, (None, SAMP_STATE_SIZE), "states")
-    B = states.shape[0]
-    check_shape(roots, (B, 3), "roots")
-    local, direction = _to_root_frame(roots, goal_position, goal_direction)
-    parts = goal_features(states[:, SAMP_STATE_LAYOUT["trajectory_positions"]],
-                          states[:, SAMP_STATE_LAYOUT["trajectory_directions"]], local, direction, goal_action)
-    out = states.clone()
-    for name, values in parts.items():
-        out[:, SAMP_STATE_LAYOUT[name]] = values
-    return out
+    return torch.view_as_real(as_complex(xy) * torch.polar(torch.ones_like(angle), angle))
 
 
 @dataclass
@@ -222,17 +108,27 @@ class GoalSequence:
         check_shape(self.actions, (B, G), "actions")
         check_shape(self.radii, (B, G), "radii")
         check_shape(self.counts, (B,), "counts")
+        self._rows = torch.arange(B)
+        # the goals as the bookkeeping reads them: complex ground positions, unit facings, heights
+        self._xy, self._forward = as_complex(self.positions[..., :2]), unit(as_complex(self.directions[..., :2]))
+        self._height = self.positions[..., 2:]
 
     def current(self, index: torch.Tensor):
-        rows = torch.arange(self.positions.shape[0])
-        return self.positions[rows, index], self.directions[rows, index], self.actions[rows, index]
+        """``(position (B, 3), direction (B, 3), action (B,))`` of goal ``index (B,)`` of each character."""
+        return self.positions[self._rows, index], self.directions[self._rows, index], self.actions[self._rows, index]
+
+    def seen_from(self, index: torch.Tensor, roots: torch.Tensor) -> LocalGoal:
+        """Goal ``index (B,)`` of each character seen from ``roots (B, 3)``."""
+        rows = self._rows
+        return local_goal(roots, self._xy[rows, index], self._forward[rows, index], self._height[rows, index],
+                          self.actions[rows, index])
 
     def advance(self, index: torch.Tensor, roots: torch.Tensor) -> torch.Tensor:
         """The goal index after the roots ``(B, 3)`` moved: a goal within its radius is passed."""
-        position, _, _ = self.current(index)
-        rows = torch.arange(index.shape[0])
-        near = (roots[:, :2] - position[:, :2]).norm(dim=-1) < self.radii[rows, index]
-        return torch.where(near & (index < self.counts - 1), index + 1, index)
+        offset = roots[:, :2] - self.positions[self._rows, index, :2]
+        radius = self.radii[self._rows, index]
+        near = offset.square().sum(-1) < radius * radius
+        return index + (near & (index < self.counts - 1))
 
 
 def _action_ids(actions, B: int) -> torch.Tensor:
@@ -341,6 +237,7 @@ def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, 
     index = torch.zeros(B, dtype=torch.int64)
     x = with_goal(x, roots, *goals.current(index))
     states, root_track, goal_track = [x], [roots], [index]
+    scale = float(latent_scale)
     for _ in range(n_frames):
         if voxel_centres is None:
             voxels = sensor_voxels(None, None, roots) if model.environment_sensor else torch.zeros(B, 2048)
@@ -350,15 +247,18 @@ def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, 
             voxels = voxels_in_root_frame(voxel_centres, voxel_occupancy, roots)
         z = None
         if model.latent:
-            z = latent_scale * torch.randn(B, model.latent, generator=generator)
+            z = torch.randn(B, model.latent, generator=generator)
+            z = z if scale == 1.0 else scale * z
         y = model.predict(x.to(device), voxels.to(device), None if z is None else z.to(device)).cpu()
         roots = apply_root_displacement(roots, y[:, SAMP_STATE_SIZE:])
         x = y[:, :SAMP_STATE_SIZE]
-        if goal_correction:
-            position, direction, _ = goals.current(index)
-            x = correct_towards_goal(x, roots, position, direction)
-        index = goals.advance(index, roots)
-        x = with_goal(x, roots, *goals.current(index))
+        goal = goals.seen_from(index, roots)
+        passed = goals.advance(index, roots)
+        correct_towards = goal if goal_correction else None  # the goal the step was heading for
+        if bool((passed != index).any()):  # a goal was passed: the features are the next one's
+            index = passed
+            goal = goals.seen_from(index, roots)
+        x = recomputed_state(x, goal=goal, correct_towards=correct_towards)
         states.append(x)
         root_track.append(roots)
         goal_track.append(index)
