@@ -328,3 +328,63 @@ def test_the_public_code_variant_restores_only_the_goal():
     assert not bool(mask[SAMP_STATE_LAYOUT["goal_trajectory_positions"]].any())
     assert not bool(mask[SAMP_STATE_LAYOUT["goal_trajectory_directions"]].any())
     assert int(mask.sum()) == 21 + 21 + 35
+
+
+def test_precision_is_averaged_over_every_run_that_acted():
+    from hoi_tutorial.samp import evaluation as ev
+
+    inf = math.inf
+    times = np.array([2.0, 3.0, inf, 5.0])
+    pe = np.array([10.0, 50.0, inf, 20.0])  # the second run sat 50 cm away: a miss that acted
+    re = np.array([5.0, 40.0, inf, 15.0])
+    reached = np.isfinite(times) & (pe < 30.0)
+    s = ev.precision_summary(times, pe, re, reached)
+    assert (s["runs"], s["acted"], s["reached"]) == (4, 3, 2)
+    assert s["PE"] == pytest.approx(80.0 / 3) and s["RE"] == pytest.approx(20.0)  # the miss counts
+    assert s["PE_reached"] == pytest.approx(15.0) and s["RE_reached"] == pytest.approx(10.0)
+    assert s["execution_time"] == inf  # one run never acted: Table 2's ∞
+    assert s["execution_time_acted"] == pytest.approx(10.0 / 3)
+    every = ev.precision_summary(times[[0, 1, 3]], pe[[0, 1, 3]], re[[0, 1, 3]], reached[[0, 1, 3]])
+    assert every["execution_time"] == pytest.approx(10.0 / 3)
+    none = ev.precision_summary([inf, inf], [inf, inf], [inf, inf], [False, False])
+    assert none["PE"] == inf and none["acted"] == 0
+
+
+def test_methods_are_compared_over_the_runs_both_performed():
+    from hoi_tutorial.samp import evaluation as ev
+
+    def results(times, pe):
+        times, pe = np.asarray(times, dtype=float), np.asarray(pe, dtype=float)
+        return ev.GoalRunResults(times, pe, pe, np.isfinite(times) & (pe < 30), rollout=None)
+
+    inf = math.inf
+    a = results([1, 1, 1, 1, 1, inf], [5, 6, 7, 5, 6, inf])
+    b = results([1, 1, 1, 1, inf, 1], [15, 16, 17, 45, inf, 9])
+    interval = ev.paired_over_acted(a, b, "position_error", seed=0)
+    assert interval.n == 4 and interval.estimate == pytest.approx(-17.5)  # (-10 - 10 - 10 - 40) / 4: both acted
+    assert interval.holds("below")  # a's PE is lower on every run both performed, the 45 cm miss included
+    assert ev.paired_over_acted(a, results([inf] * 6, [inf] * 6), "position_error") is None
+    with pytest.raises(ValueError, match="measure"):
+        ev.paired_over_acted(a, b, "speed")
+    with pytest.raises(ValueError, match="same tasks"):
+        ev.paired_over_acted(a, results([1, 1], [1, 1]), "position_error")
+
+
+def test_onset_spread_aligns_runs_on_the_action_and_is_zero_for_identical_runs():
+    from hoi_tutorial.samp import evaluation as ev
+
+    clips = [md.clip_states(md.make_clip("sit", seed)[0])[0].float() for seed in (1, 2, 3)]
+    windows = ev.onset_windows(clips, "sit", before=1.0, after=2.0)
+    assert windows.shape == (3, 90, SAMP_STATE_SIZE)
+    labels = rt.current_action(windows)
+    sit = SAMP_ACTIONS.index("sit")
+    assert bool((labels[:, 30] == sit).all()) and not bool((labels[:, 29] == sit).any())  # the onset at 1 s
+    twin, n = ev.onset_spread([clips[0], clips[0].clone()], "sit")
+    assert n == 2 and twin == pytest.approx(0.0, abs=1e-9)  # a deterministic model's runs of one task
+    spread, n = ev.onset_spread(clips, "sit")
+    assert n == 3 and spread > 0.1
+    walk = md.clip_states(md.make_clip("walk", 4)[0])[0].float()
+    assert ev.onset_spread(clips[:1] + [walk], "sit")[1] == 1  # a run that never sits is left out
+    assert math.isnan(ev.onset_spread([walk], "sit")[0])
+    with pytest.raises(ValueError, match="before, after"):
+        ev.onset_windows(clips, "sit", before=-1.0)

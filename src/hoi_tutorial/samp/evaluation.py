@@ -18,6 +18,10 @@
   action on ``X̃ = {j^p, j^r, j^v, t̃^p, t̃^d}`` (``metrics.frechet_distance``).
 - A run **reaches** its goal when the action began within the time limit and PE is below
   ``reach_radius`` (ours: 30 cm; the paper reports no threshold, only ∞ for runs that never act).
+  PE, RE and execution time are reported as the paper does (:func:`precision_summary`): PE and RE
+  over every run that performed the action, a miss counting with its error; the execution time over
+  every run, ∞ when any never acted. Two methods are compared run by run over the same tasks
+  (:func:`paired_over_acted`).
 """
 from __future__ import annotations
 
@@ -28,6 +32,7 @@ from typing import Optional, Sequence
 import numpy as np
 import torch
 
+from .. import intervals
 from .._validate import check_choice
 from ..metrics import average_pairwise_distance, execution_time, goal_precision
 from ..world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT
@@ -36,8 +41,9 @@ from .core import MotionModel
 from .motion_data import OBJECT_CATEGORIES, lie_facing, object_voxel_cells
 from .runtime import GoalSequence, Rollout, current_action, rollout, standing_state
 
-__all__ = ["GoalTask", "goal_tasks", "GoalRunResults", "run_goal_tasks", "measure_goal_runs", "LOCAL_POSE_FEATURES", "FD_FEATURES",
-           "state_features", "direction_runs", "standing_runs", "action_frames", "repeated_goal_runs", "run_spread"]
+__all__ = ["GoalTask", "goal_tasks", "precision_summary", "paired_over_acted", "GoalRunResults", "run_goal_tasks", "measure_goal_runs", "LOCAL_POSE_FEATURES", "FD_FEATURES",
+           "state_features", "direction_runs", "standing_runs", "action_frames", "repeated_goal_runs", "run_spread",
+           "onset_windows", "onset_spread"]
 
 
 @dataclass
@@ -92,6 +98,45 @@ def goal_tasks(action: str, n: int, seed: int = 0, distance: tuple = (3.0, 4.0),
     return tasks
 
 
+def precision_summary(execution_time, position_error, rotation_error, reached) -> dict:
+    """Table 2's and Table 3's numbers from per-run measurements, as the paper reports them.
+
+    Args:
+        execution_time: ``(B,)`` s, ``inf`` where the action never began; position_error ``(B,)`` cm;
+        rotation_error ``(B,)`` degrees; reached ``(B,)`` bool.
+    Returns:
+        dict: ``runs``; ``acted`` (runs whose action began); ``reached`` (of those, PE below the
+        reach radius); ``execution_time``, the mean over every run, ``inf`` when any run never began
+        the action (Table 2: "∞ means the method failed to reach the goal within 3 minutes");
+        ``execution_time_acted``, the mean over the runs that acted; ``PE`` and ``RE``, means over the
+        runs that performed the action, a miss counting with its error (``inf`` when none acted);
+        ``PE_reached``, ``RE_reached``, the means over the runs that reached (``inf`` when none did).
+    """
+    times, pe, re = (np.asarray(v, dtype=np.float64) for v in (execution_time, position_error, rotation_error))
+    reached = np.asarray(reached, dtype=bool)
+    acted = np.isfinite(times)
+    mean = (lambda v, rows: float(np.mean(v[rows])) if rows.any() else math.inf)
+    return {"runs": int(len(times)), "acted": int(acted.sum()), "reached": int(reached.sum()),
+            "execution_time": float(np.mean(times)) if acted.all() else math.inf,
+            "execution_time_acted": mean(times, acted), "PE": mean(pe, acted), "RE": mean(re, acted),
+            "PE_reached": mean(pe, reached), "RE_reached": mean(re, reached)}
+
+
+def paired_over_acted(a: "GoalRunResults", b: "GoalRunResults", measure: str, **kwargs):
+    """``a`` minus ``b`` in ``measure`` (``"position_error"``, ``"rotation_error"`` or ``"execution_time"``),
+    paired run by run over the runs of the same tasks where both performed the action: an
+    :class:`~hoi_tutorial.intervals.Interval` (paired bootstrap; ``kwargs`` go to
+    ``intervals.paired_difference``), or None when fewer than two runs acted in both."""
+    check_choice(measure, ("position_error", "rotation_error", "execution_time"), "measure")
+    if len(a.execution_time) != len(b.execution_time):
+        raise ValueError(f"a, b: expected runs of the same tasks, got {len(a.execution_time)} and {len(b.execution_time)}")
+    both = np.isfinite(a.execution_time) & np.isfinite(b.execution_time)
+    if both.sum() < 2:
+        return None
+    return intervals.paired_difference(np.asarray(getattr(a, measure))[both], np.asarray(getattr(b, measure))[both],
+                                       **kwargs)
+
+
 @dataclass
 class GoalRunResults:
     """What :func:`run_goal_tasks` measured, one entry per task.
@@ -116,12 +161,14 @@ class GoalRunResults:
     def success_rate(self) -> float:
         return float(np.mean(self.reached))
 
+    @property
+    def acted(self) -> np.ndarray:
+        """``(B,)`` bool: the runs whose action began within the limit."""
+        return np.isfinite(self.execution_time)
+
     def summary(self) -> dict:
-        """Counts and means over the runs that reached their goal (``inf`` when none did)."""
-        ok = self.reached
-        mean = (lambda v: float(np.mean(v[ok])) if ok.any() else math.inf)
-        return {"reached": int(ok.sum()), "runs": int(len(ok)), "execution_time": mean(self.execution_time),
-                "PE": mean(self.position_error), "RE": mean(self.rotation_error)}
+        """Counts and means as the paper reports them (:func:`precision_summary`)."""
+        return precision_summary(self.execution_time, self.position_error, self.rotation_error, self.reached)
 
 
 def run_goal_tasks(model: MotionModel, tasks: Sequence[GoalTask], seconds: float = 20.0, seed: int = 0,
@@ -250,3 +297,44 @@ def run_spread(states: torch.Tensor) -> float:
     frame, averaged over frames (0 for a deterministic model). ``states (R, T, 437)``."""
     features = state_features(states, LOCAL_POSE_FEATURES)  # (R, T, D)
     return float(np.mean(average_pairwise_distance(np.swapaxes(features, 0, 1))))
+
+
+def onset_windows(runs, action: str, before: float = 1.0, after: float = 2.0, fps: float = 30.0) -> torch.Tensor:
+    """The states around each run's action onset, aligned on it: ``(R', W, 437)``.
+
+    Args:
+        runs: ``(R, T, 437)`` states, or a list of ``(T_r, 437)`` (ground-truth clips of different lengths).
+        action: the action whose first labelled frame (``t^a`` at the current sample) is the onset.
+        before, after: seconds kept before and after the onset (``W = round((before + after) fps)``);
+            a window that runs past a run's ends repeats its first or last frame.
+    Returns:
+        the windows of the runs that act (a run that never does is left out: ``R' ≤ R``).
+    """
+    check_choice(action, SAMP_ACTIONS, "action")
+    if before < 0 or after <= 0:
+        raise ValueError(f"before, after: expected before >= 0 and after > 0 seconds, got {before!r}, {after!r}")
+    offsets = torch.arange(-int(round(before * fps)), int(round(after * fps)))
+    windows = []
+    for run in runs:
+        onset = torch.nonzero(current_action(run) == SAMP_ACTIONS.index(action))
+        if len(onset):
+            windows.append(run[(int(onset[0, 0]) + offsets).clamp(0, len(run) - 1)])
+    if not windows:
+        return torch.zeros(0, len(offsets), SAMP_STATE_LAYOUT["contacts"].stop)
+    return torch.stack(windows)
+
+
+def onset_spread(runs, action: str, before: float = 1.0, after: float = 2.0) -> tuple[float, int]:
+    """How differently the runs perform the action: :func:`run_spread` of their :func:`onset_windows`.
+
+    Runs from one start with one goal part ways at different moments; aligned on the onset, the spread
+    compares the actions themselves (the ways of sitting down), and it can be computed the same way for
+    ground-truth clips of different lengths. A deterministic model's runs of one task coincide: 0.
+
+    Returns:
+        ``(spread, runs used)``; ``(nan, n)`` with fewer than two runs that act.
+    """
+    windows = onset_windows(runs, action, before, after)
+    if len(windows) < 2:
+        return math.nan, len(windows)
+    return run_spread(windows), len(windows)
