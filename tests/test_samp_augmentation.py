@@ -89,3 +89,21 @@ def test_a_contact_point_under_a_higher_thin_seat_lands_on_its_top():
     before, after = motion.joints.double().numpy()[pelvis, 0], out.joints.double().numpy()[pelvis, 0]
     np.testing.assert_allclose(new.sdf(after), obj.sdf(before), atol=0.005)
     assert (after[:, 2] - before[:, 2]).mean() > 0.03  # raised with the seat, not lowered under it
+
+
+@pytest.mark.parametrize("kind, seed", CASES)
+def test_an_augmented_clip_heads_for_the_goal_on_the_new_object(kind, seed):
+    motion, obj, new = _switched(kind, seed)
+    out = aug.augment_clip(motion, obj, new)
+    key = "sit_goal" if kind == "sit" else "lie_goal"
+    old_goal = np.asarray(motion.meta[key]["position"])
+    new_goal = np.asarray(out.meta[key]["position"])
+    # the goal keeps its distance to the seat, now the new object's, and the seated pelvis its offset to the goal
+    assert abs(float(new.sdf(new_goal[None])[0]) - float(obj.sdf(old_goal[None])[0])) < 0.005
+    assert abs(float(new.sdf(old_goal[None])[0]) - float(obj.sdf(old_goal[None])[0])) > 0.02  # the old one is off it
+    np.testing.assert_allclose(out.joints[-1, 0].double().numpy() - new_goal,
+                               motion.joints[-1, 0].double().numpy() - old_goal, atol=1e-5)
+    positions, _, _ = md.clip_goals(out)
+    np.testing.assert_allclose(positions[0], new_goal)
+    np.testing.assert_allclose(out.meta[key]["direction"], motion.meta[key]["direction"])
+    np.testing.assert_allclose(motion.meta[key]["position"], old_goal)  # the original clip is left as it was

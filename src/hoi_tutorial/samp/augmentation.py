@@ -100,7 +100,9 @@ def augment_clip(motion: Motion, obj: ToyObject, new_obj: ToyObject, blend: floa
         obj: the object the clip was made with; new_obj: the one to move it to (world frame both).
         blend: seconds over which the pelvis displacement eases in before its first contact.
     Returns:
-        A new ``Motion`` (same length, labels and contacts; ``meta["augmented_from"]`` names the object).
+        A new ``Motion`` (same length, labels and contacts; ``meta["augmented_from"]`` names the object;
+        its ``meta["sit_goal"]`` or ``meta["lie_goal"]`` moved by the pelvis's displacement at the last
+        frame, so that ``motion_data.clip_goals`` reads the goal on the new object).
     Raises:
         TypeError / ValueError: not a Motion with contacts, not ToyObjects, a negative blend.
     """
@@ -157,5 +159,11 @@ def augment_clip(motion: Motion, obj: ToyObject, new_obj: ToyObject, blend: floa
         _, moved = forward_kinematics(rotations[rows], root[rows], offsets)
         rotations[rows] = solve_limb_ik(rotations[rows], root[rows], limb, target.to(root.dtype),
                                         _limb_pole(moved, limb), offsets)
-    return dataclasses.replace(motion, local_rotations=rotations, root_position=root,
-                               meta={**motion.meta, "augmented_from": obj.category})
+    # the goal moves with the object: a sit (lie) goal by the pelvis's displacement where the clip ends seated
+    meta = {**motion.meta, "augmented_from": obj.category}
+    for key in ("sit_goal", "lie_goal"):
+        if key in meta:
+            goal = dict(meta[key])
+            goal["position"] = np.asarray(goal["position"], dtype=np.float64) + shift[-1]
+            meta[key] = goal
+    return dataclasses.replace(motion, local_rotations=rotations, root_position=root, meta=meta)
