@@ -33,8 +33,7 @@ from ..world.skeleton import NUM_JOINTS
 from .core import MotionModel
 from .goal_frame import (CURRENT_SAMPLE, LocalGoal, correct_towards_goal, goal_features, local_goal, recomputed_state,
                          unit, with_goal)
-from .motion_data import as_complex
-from .motion_data import apply_root_displacement, voxels_in_root_frame
+from .motion_data import apply_root_displacement, as_complex, voxels_in_root_frame
 from .sensor import sensor_voxels
 
 __all__ = [
