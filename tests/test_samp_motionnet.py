@@ -388,3 +388,19 @@ def test_onset_spread_aligns_runs_on_the_action_and_is_zero_for_identical_runs()
     assert math.isnan(ev.onset_spread([walk], "sit")[0])
     with pytest.raises(ValueError, match="before, after"):
         ev.onset_windows(clips, "sit", before=-1.0)
+
+
+def test_captured_states_are_the_toy_mocap_on_one_object():
+    from hoi_tutorial.samp import evaluation as ev
+    from hoi_tutorial.samp.pipeline import RoomRunResults
+
+    obj = md.make_clip("sit", 7)[1]
+    clips = ev.captured_states("sit", obj, n=3)
+    assert len(clips) == 3 and all(c.shape[-1] == SAMP_STATE_SIZE for c in clips)
+    torch.testing.assert_close(clips[1], md.clip_states(md.make_clip("sit", 5001, obj=obj)[0])[0])
+    with pytest.raises(ValueError, match="action"):
+        ev.captured_states("walk", obj)
+    # the room runs read their numbers the same way as the goal runs
+    room = RoomRunResults(np.array([1.0, math.inf]), np.array([40.0, math.inf]), np.array([5.0, math.inf]),
+                          np.array([False, False]), np.zeros(2), rollout=None)
+    assert room.summary()["PE"] == 40.0 and room.summary()["execution_time"] == math.inf and room.acted.sum() == 1

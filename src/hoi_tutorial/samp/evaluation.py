@@ -35,15 +35,15 @@ import torch
 from .. import intervals
 from .._validate import check_choice
 from ..metrics import average_pairwise_distance, execution_time, goal_precision
-from ..world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT
+from ..world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE
 from ..world.objects import ToyObject, make_object
 from .core import MotionModel
-from .motion_data import OBJECT_CATEGORIES, lie_facing, object_voxel_cells
+from .motion_data import OBJECT_CATEGORIES, clip_states, lie_facing, make_clip, object_voxel_cells
 from .runtime import GoalSequence, Rollout, current_action, rollout, standing_state
 
 __all__ = ["GoalTask", "goal_tasks", "precision_summary", "paired_over_acted", "GoalRunResults", "run_goal_tasks", "measure_goal_runs", "LOCAL_POSE_FEATURES", "FD_FEATURES",
            "state_features", "direction_runs", "standing_runs", "action_frames", "repeated_goal_runs", "run_spread",
-           "onset_windows", "onset_spread"]
+           "captured_states", "onset_windows", "onset_spread", "MeasuredRuns"]
 
 
 @dataclass
@@ -137,8 +137,22 @@ def paired_over_acted(a: "GoalRunResults", b: "GoalRunResults", measure: str, **
                                        **kwargs)
 
 
+class MeasuredRuns:
+    """What the goal runs and the room runs share: per-run ``execution_time``, ``position_error``,
+    ``rotation_error`` and ``reached`` arrays, read as the paper reports them."""
+
+    @property
+    def acted(self) -> np.ndarray:
+        """``(B,)`` bool: the runs whose action began within the limit."""
+        return np.isfinite(self.execution_time)
+
+    def summary(self) -> dict:
+        """Counts and means as the paper reports them (:func:`precision_summary`)."""
+        return precision_summary(self.execution_time, self.position_error, self.rotation_error, self.reached)
+
+
 @dataclass
-class GoalRunResults:
+class GoalRunResults(MeasuredRuns):
     """What :func:`run_goal_tasks` measured, one entry per task.
 
     Attributes:
@@ -161,14 +175,6 @@ class GoalRunResults:
     def success_rate(self) -> float:
         return float(np.mean(self.reached))
 
-    @property
-    def acted(self) -> np.ndarray:
-        """``(B,)`` bool: the runs whose action began within the limit."""
-        return np.isfinite(self.execution_time)
-
-    def summary(self) -> dict:
-        """Counts and means as the paper reports them (:func:`precision_summary`)."""
-        return precision_summary(self.execution_time, self.position_error, self.rotation_error, self.reached)
 
 
 def run_goal_tasks(model: MotionModel, tasks: Sequence[GoalTask], seconds: float = 20.0, seed: int = 0,
@@ -299,6 +305,13 @@ def run_spread(states: torch.Tensor) -> float:
     return float(np.mean(average_pairwise_distance(np.swapaxes(features, 0, 1))))
 
 
+def captured_states(action: str, obj: ToyObject, n: int = 10, first_seed: int = 5000) -> list:
+    """The ground truth of one object: ``n`` toy-mocap clips of ``action`` on ``obj`` (seeds ``first_seed``,
+    ``first_seed + 1``, …; each draws its own style, start and goal), as state sequences ``(T_k, 437)``."""
+    check_choice(action, tuple(OBJECT_CATEGORIES), "action")
+    return [clip_states(make_clip(action, first_seed + k, obj=obj)[0])[0] for k in range(int(n))]
+
+
 def onset_windows(runs, action: str, before: float = 1.0, after: float = 2.0, fps: float = 30.0) -> torch.Tensor:
     """The states around each run's action onset, aligned on it: ``(R', W, 437)``.
 
@@ -320,7 +333,7 @@ def onset_windows(runs, action: str, before: float = 1.0, after: float = 2.0, fp
         if len(onset):
             windows.append(run[(int(onset[0, 0]) + offsets).clamp(0, len(run) - 1)])
     if not windows:
-        return torch.zeros(0, len(offsets), SAMP_STATE_LAYOUT["contacts"].stop)
+        return torch.zeros(0, len(offsets), SAMP_STATE_SIZE)
     return torch.stack(windows)
 
 

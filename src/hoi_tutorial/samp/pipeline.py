@@ -39,7 +39,7 @@ import torch
 from .._validate import check_choice, check_shape
 from ..world.primitives import union_sdf
 from .core import GoalNetCVAE, MotionModel
-from .evaluation import measure_goal_runs, precision_summary
+from .evaluation import MeasuredRuns, measure_goal_runs
 from .goalnet import sample_goals
 from .motion_data import object_voxel_cells
 from .planning import check_room_point, plan_path, reaches, simplify_waypoints, straight_walk_is_free
@@ -249,7 +249,7 @@ def room_voxel_cells(tasks: Sequence[RoomTask], every_object: bool = False) -> t
 
 
 @dataclass
-class RoomRunResults:
+class RoomRunResults(MeasuredRuns):
     """What :func:`run_room_tasks` measured, one entry per task.
 
     Attributes:
@@ -269,15 +269,6 @@ class RoomRunResults:
     rollout: Rollout = field(repr=False)
     waypoints: list = field(repr=False, default_factory=list)
     reach_radius: float = 0.3
-
-    @property
-    def acted(self) -> np.ndarray:
-        """``(B,)`` bool: the runs that sat down within the limit."""
-        return np.isfinite(self.execution_time)
-
-    def summary(self) -> dict:
-        """Counts and means as the paper reports them (``evaluation.precision_summary``)."""
-        return precision_summary(self.execution_time, self.position_error, self.rotation_error, self.reached)
 
     @property
     def penetration_percent(self) -> float:

@@ -236,7 +236,6 @@ def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, 
     index = torch.zeros(B, dtype=torch.int64)
     x = with_goal(x, roots, *goals.current(index))
     states, root_track, goal_track = [x], [roots], [index]
-    scale = float(latent_scale)
     for _ in range(n_frames):
         if voxel_centres is None:
             voxels = sensor_voxels(None, None, roots) if model.environment_sensor else torch.zeros(B, 2048)
@@ -246,8 +245,7 @@ def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, 
             voxels = voxels_in_root_frame(voxel_centres, voxel_occupancy, roots)
         z = None
         if model.latent:
-            z = torch.randn(B, model.latent, generator=generator)
-            z = z if scale == 1.0 else scale * z
+            z = latent_scale * torch.randn(B, model.latent, generator=generator)
         y = model.predict(x.to(device), voxels.to(device), None if z is None else z.to(device)).cpu()
         roots = apply_root_displacement(roots, y[:, SAMP_STATE_SIZE:])
         x = y[:, :SAMP_STATE_SIZE]
