@@ -114,6 +114,30 @@ def test_clip_goals_of_each_kind():
         md.make_clip("dance", 0)
 
 
+def test_sit_and_lie_approaches_start_all_around_the_object_and_keep_out_of_it():
+    # §4.1: "the subject starts from an A-Pose in a random location in the MoCap space": the
+    # starts' directions from the object, seen from its front, fill every quarter of the circle
+    angles, far = [], []
+    for kind, seeds in (("sit", range(24)), ("lie", range(8))):
+        for seed in seeds:
+            clip, obj = md.make_clip(kind, seed)
+            offset = clip.root_position[0, :2].double().numpy() - obj.pose[:2, 3]
+            front = obj.pose[:2, 1]
+            angles.append(math.atan2(front[0] * offset[1] - front[1] * offset[0], front @ offset))
+            far.append(np.linalg.norm(offset))
+            assert md.approach_clearance(clip, obj) >= -md.APPROACH_PENETRATION
+    quarters = np.histogram(angles, bins=4, range=(-math.pi, math.pi))[0]
+    assert quarters.min() >= 4, quarters  # 32 starts; ±70° of the front would leave the back quarter empty
+    assert md.APPROACH_DISTANCE[0] - 0.2 < min(far) and max(far) < md.APPROACH_DISTANCE[1] + 0.2
+    # the start itself is uniform over the circle at the stated distance
+    rng = np.random.default_rng(0)
+    _, chair = md.make_clip("sit", 3)
+    starts = np.stack([md.approach_start(chair, rng) for _ in range(400)]) - chair.pose[:2, 3]
+    radii = np.linalg.norm(starts, axis=1)
+    assert md.APPROACH_DISTANCE[0] <= radii.min() and radii.max() <= md.APPROACH_DISTANCE[1]
+    assert np.histogram(np.arctan2(starts[:, 1], starts[:, 0]), bins=8, range=(-math.pi, math.pi))[0].min() > 25
+
+
 def test_walk_first_clips_switch_from_a_walk_goal_to_the_seat_near_the_standing_spot():
     kinds = {True: 0, False: 0}
     for seed in range(12):

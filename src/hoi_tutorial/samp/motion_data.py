@@ -7,8 +7,9 @@ lie), each turned into per-frame states ``X_i`` (Eq. 1, reduced: ``world.feature
 with the goal the clip is heading for:
 
 - **sit / lie**: the object's sitting (lying) goal the clip ends on, action "sit" ("lie"), during the
-  approach walk too, as in the paper's captures ("the subject starts ... walks towards the object,
-  and performs the action"). Clips end seated or lying (no standing up: at run time a goal is held).
+  approach walk too, which starts anywhere around the object, 2-4.5 m from its centre
+  (``approach_start``), and walks round it where it must, as in the paper's captures ("the subject
+  starts from an A-Pose in a random location ... walks towards the object, and performs the action"). Clips end seated or lying (no standing up: at run time a goal is held).
   A share of them (``MotionDataConfig.walk_first_share``; none in the presets) walk to the spot
   where the approach walk ends under a *walk* goal first, facing along the approach, and switch to
   the sitting (lying) goal once the root is within ``WALK_SWITCH_RADIUS`` of it. SAMP's run-time
@@ -50,6 +51,7 @@ import torch
 from .._validate import check_choice, check_shape
 from ..infra import load_or_build, scaled_config
 from ..world import mocap
+from ..world.body import body_from_motion
 from ..world.features import SAMP_ACTIONS, SAMP_STATE_SIZE, root_frame, samp_action_ids, samp_pose_state
 from ..world.motion import ACTIONS, Motion
 from ..world.objects import ToyObject, make_object
@@ -72,6 +74,10 @@ __all__ = [
     "object_voxel_cells",
     "voxels_in_root_frame",
     "MotionData",
+    "APPROACH_DISTANCE",
+    "APPROACH_PENETRATION",
+    "approach_start",
+    "approach_clearance",
     "make_clip",
     "motion_data",
 ]
@@ -284,6 +290,30 @@ def voxels_in_root_frame(centres: torch.Tensor, occupancy: torch.Tensor, roots: 
 # ----------------------------------------------------------------------------- clips and the data set
 
 
+APPROACH_DISTANCE = (2.0, 4.5)  # metres from the object's centre to where a sit or lie clip starts
+APPROACH_PENETRATION = 0.015  # metres: the deepest an approach walk may brush the object (as sitting.py allows)
+_APPROACH_TRIES = 8
+
+
+def approach_start(obj: ToyObject, rng: np.random.Generator) -> np.ndarray:
+    """Where a sit or lie clip's approach walk starts: ``(2,)`` metres, in any direction from the
+    object's centre (uniform over the circle) and ``APPROACH_DISTANCE`` from it."""
+    angle = rng.uniform(-math.pi, math.pi)
+    return obj.pose[:2, 3] + rng.uniform(*APPROACH_DISTANCE) * np.array([math.cos(angle), math.sin(angle)])
+
+
+def approach_clearance(motion: Motion, obj: ToyObject, stride: int = 2) -> float:
+    """The smallest signed distance (metres) from ``obj`` to the body over the frames before the
+    clip's first sit-down or lie-down (every ``stride``-th frame); negative: the body is inside."""
+    names = [ACTIONS[a] for a in motion.actions]
+    first = next((k for k, a in enumerate(names) if a in ("sit_down", "sit", "lie_down", "lie")), len(names))
+    frames = list(range(0, first, stride))
+    if not frames:
+        return math.inf
+    vertices = body_from_motion(motion, frames).double().numpy().reshape(-1, 3)
+    return float(obj.sdf(vertices).min())
+
+
 def make_clip(kind: str, seed: int, obj: Optional[ToyObject] = None, walk_first_share: float = 0.0):
     """One toy clip of a SAMP action: walks and runs start facing a random direction; sit and lie
     clips end seated or lying (no standing up).
@@ -313,15 +343,18 @@ def make_clip(kind: str, seed: int, obj: Optional[ToyObject] = None, walk_first_
     if obj is None:
         categories = OBJECT_CATEGORIES[kind]
         obj = make_object(categories[int(rng.integers(len(categories)))], seed=int(rng.integers(2**31)))
-    # The approach starts 2-4.5 m in front of the object (within ±70° of its front), so that the clip
-    # holds steady walking towards the seat with its goal, as at run time after the last waypoint.
-    centre = obj.pose[:2, 3]
-    front = obj.pose[:2, 1] / np.linalg.norm(obj.pose[:2, 1])
-    angle = rng.uniform(-math.radians(70), math.radians(70))
-    direction = np.array([math.cos(angle) * front[0] - math.sin(angle) * front[1],
-                          math.sin(angle) * front[0] + math.cos(angle) * front[1]])
-    start = centre + rng.uniform(2.0, 4.5) * direction
-    motion = mocap.generate_clip(kind, seed=int(rng.integers(2**31)), obj=obj, stand_up=False, start_position=start)
+    # "The subject starts from an A-Pose in a random location in the MoCap space, walks towards the
+    # object" (§4.1): a start anywhere around the object, APPROACH_DISTANCE from its centre. A start
+    # whose walk would pass through the object (a subject walks round it) is drawn again.
+    for _ in range(_APPROACH_TRIES):
+        start = approach_start(obj, rng)
+        motion = mocap.generate_clip(kind, seed=int(rng.integers(2**31)), obj=obj, stand_up=False,
+                                     start_position=start)
+        if approach_clearance(motion, obj) >= -APPROACH_PENETRATION:
+            break
+    else:
+        raise RuntimeError(f"make_clip: no approach to the {obj.category} (seed {seed}) in {_APPROACH_TRIES} starts "
+                           f"keeps out of it by {APPROACH_PENETRATION} m")
     motion.meta["walk_first"] = bool(rng.uniform() < walk_first_share)
     return motion, obj
 

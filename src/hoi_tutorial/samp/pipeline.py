@@ -16,7 +16,7 @@ The algorithm box, as :func:`run_room_tasks` runs it:
    (``planning.simplify_waypoints``), and the sitting goal taking over as soon as the rest of the path
    to the standing spot is shorter than ``action_radius`` and the straight walk there is free
    (:class:`PathGoals`), whatever waypoints are still pending (the training clips walk up to a seat
-   under its goal from 2-4.5 m).
+   under its goal from anywhere 2-4.5 m around it, ``motion_data.APPROACH_DISTANCE``).
 4. **MotionNet** steps the character (``runtime.rollout``) with the target's voxels; the NSM-like model
    of Table 5 senses every object of the room instead (:func:`room_voxel_cells`, ``samp.sensor``).
 
