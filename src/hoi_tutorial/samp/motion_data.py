@@ -9,7 +9,8 @@ with the goal the clip is heading for:
 - **sit / lie**: the object's sitting (lying) goal the clip ends on, action "sit" ("lie"), during the
   approach walk too, which starts anywhere around the object, 2-4.5 m from its centre
   (``approach_start``), and walks round it where it must, as in the paper's captures ("the subject
-  starts from an A-Pose in a random location ... walks towards the object, and performs the action"). Clips end seated or lying (no standing up: at run time a goal is held).
+  starts from an A-Pose in a random location ... walks towards the object, and performs the action");
+  it stops near the spot in front of the seat, not on it (``ARRIVAL``), and the sit-down corrects. Clips end seated or lying (no standing up: at run time a goal is held).
   A share of them (``MotionDataConfig.walk_first_share``; none in the presets) walk to the spot
   where the approach walk ends under a *walk* goal first, facing along the approach, and switch to
   the sitting (lying) goal once the root is within ``WALK_SWITCH_RADIUS`` of it. SAMP's run-time
@@ -76,6 +77,7 @@ __all__ = [
     "MotionData",
     "APPROACH_DISTANCE",
     "APPROACH_PENETRATION",
+    "ARRIVAL",
     "approach_start",
     "approach_clearance",
     "make_clip",
@@ -291,6 +293,10 @@ def voxels_in_root_frame(centres: torch.Tensor, occupancy: torch.Tensor, roots: 
 
 
 APPROACH_DISTANCE = (2.0, 4.5)  # metres from the object's centre to where a sit or lie clip starts
+# Ours: where the approach stops, up to 0.25 m to either side of the standing spot and 20° off the seat's
+# facing, the sit-down (lie-down) taking the pelvis from there onto the goal, as a subject's does; a
+# toy capture otherwise always stops exactly on the spot, and MotionNet never sees a sit begun off it.
+ARRIVAL = (0.25, math.radians(20.0))
 APPROACH_PENETRATION = 0.015  # metres: the deepest an approach walk may brush the object (as sitting.py allows)
 _APPROACH_TRIES = 8
 
@@ -349,7 +355,7 @@ def make_clip(kind: str, seed: int, obj: Optional[ToyObject] = None, walk_first_
     for _ in range(_APPROACH_TRIES):
         start = approach_start(obj, rng)
         motion = mocap.generate_clip(kind, seed=int(rng.integers(2**31)), obj=obj, stand_up=False,
-                                     start_position=start)
+                                     start_position=start, arrival=ARRIVAL)
         if approach_clearance(motion, obj) >= -APPROACH_PENETRATION:
             break
     else:

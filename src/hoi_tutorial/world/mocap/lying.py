@@ -148,7 +148,7 @@ def _lie_down_plan(u, seat, seat_heading, posture, goal, head_dir, ankles_floor,
 
 @single_threaded
 def lie(obj, *, betas=None, seed=0, style: Optional[str] = None, goal_index: Optional[int] = None,
-        approach: bool = True, stand_up: bool = False, start_position=None) -> Motion:
+        approach: bool = True, stand_up: bool = False, start_position=None, arrival: Optional[tuple] = None) -> Motion:
     """Walk to a sofa, sit down, lie down on the back along the cushion, and rest.
 
     Sequence (SAMP §4.1, lying styles of its Fig. S.1): approach and "sit_down" as in
@@ -172,6 +172,7 @@ def lie(obj, *, betas=None, seed=0, style: Optional[str] = None, goal_index: Opt
         approach: walk to the sofa first.
         stand_up: sit up, stand up and walk away at the end.
         start_position: ``(2,)`` metres, where the approach starts (default: sampled).
+        arrival: ``(lateral m, turn rad)`` off the spot where the approach stops (``sitting.approach_seat``).
     Returns:
         ``Motion`` with actions, contacts (pelvis from the settle on the seat to the end of the
         lying; feet while on the floor) and ``meta`` (kind, style, seed, object, goal_index,
@@ -199,7 +200,8 @@ def lie(obj, *, betas=None, seed=0, style: Optional[str] = None, goal_index: Opt
     seat = np.asarray(sit_pos[s_idx], dtype=np.float64)
     seat_dir = normalize(np.array([sit_dir[s_idx][0], sit_dir[s_idx][1], 0.0]))
     heading = heading_of(seat_dir)
-    walk, (local0, root0), backing, state = approach_seat(body, obj, seat, seat_dir, rng, start_position, approach)
+    walk, (local0, root0), backing, state = approach_seat(body, obj, seat, seat_dir, rng, start_position, approach,
+                                                          arrival)
     plans, info = sit_sequence(body, obj, seat, seat_dir, "upright", rng, *state, stand_up=False,
                                hold_seconds=(0.3, 0.6))
     plans = backing + plans

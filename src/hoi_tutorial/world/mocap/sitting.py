@@ -418,8 +418,20 @@ def _lowest_clearance(motion: Motion, obj, frames) -> float:
     return float(obj.sdf(vertices).min()) if len(vertices) else math.inf
 
 
-def approach_seat(body: PlanBody, obj, goal, direction, rng, start_position, approach: bool):
+def _check_arrival(arrival) -> tuple[float, float]:
+    values = tuple(arrival) if isinstance(arrival, (tuple, list)) else ()
+    if len(values) != 2 or not all(isinstance(v, (int, float)) and math.isfinite(v) and v >= 0 for v in values):
+        raise ValueError(f"arrival: expected (lateral metres, turn radians), two non-negative numbers, got {arrival!r}")
+    return float(values[0]), float(values[1])
+
+
+def approach_seat(body: PlanBody, obj, goal, direction, rng, start_position, approach: bool,
+                  arrival: Optional[tuple] = None):
     """Walk to the front of a seat, arriving with the back to it, and (rarely) back up to it.
+
+    ``arrival = (lateral, turn)``: the walk stops up to ``lateral`` metres to either side of the
+    spot and turned up to ``turn`` radians from the seat's facing (both uniform), and the sit-down
+    that follows takes the pelvis from there onto the seat; None (the default, no draws): on the spot.
 
     The walk passes along the seat's front, where a walking body clears the object, and its last
     steps turn the walker to face away from the seat while they come in to the spot the sit-down
@@ -434,6 +446,10 @@ def approach_seat(body: PlanBody, obj, goal, direction, rng, start_position, app
     seat_dist, walk_dist = _sit_stand_distances(body, obj, edge, direction, rng)
     heading = heading_of(direction)
     spot = edge[:2] + seat_dist * direction[:2]
+    if arrival is not None:
+        lateral, turn = _check_arrival(arrival)
+        spot = spot + rng.uniform(-lateral, lateral) * np.array([-direction[1], direction[0]])
+        heading = heading + rng.uniform(-turn, turn)
     lane = max(walk_dist - seat_dist, 0.0)
     back = 0.0
     walk = None
@@ -471,7 +487,7 @@ def approach_seat(body: PlanBody, obj, goal, direction, rng, start_position, app
 
 @single_threaded
 def sit(obj, *, betas=None, seed=0, style: Optional[str] = None, goal_index: Optional[int] = None,
-        approach: bool = True, stand_up: bool = True, start_position=None) -> Motion:
+        approach: bool = True, stand_up: bool = True, start_position=None, arrival: Optional[tuple] = None) -> Motion:
     """Walk to a seat, sit down in a style, stay seated, optionally stand up and walk away.
 
     Sequence (SAMP §4.1): an approach walk from a start at least 1.5 m away (``start_position``
@@ -497,6 +513,8 @@ def sit(obj, *, betas=None, seed=0, style: Optional[str] = None, goal_index: Opt
         approach: walk to the seat first; without it the clip starts standing at the spot.
         stand_up: stand up and walk away at the end.
         start_position: ``(2,)`` metres, where the approach starts (default: sampled).
+        arrival: ``(lateral m, turn rad)``: the approach stops off the spot and turned by up to these
+            (uniform), and the sit-down corrects it (:func:`approach_seat`); None: on the spot.
     Returns:
         ``Motion`` with actions, contacts (pelvis while seated; feet while planted) and ``meta``
         (kind, style, seed, object, goal_index, sit_goal, anchor_frame).
@@ -509,7 +527,8 @@ def sit(obj, *, betas=None, seed=0, style: Optional[str] = None, goal_index: Opt
     check_choice(style, SIT_STYLES, "style")
     k, goal, direction = _sit_goal(obj, goal_index, rng)
     heading = heading_of(direction)
-    walk, (local0, root0), backing, state = approach_seat(body, obj, goal, direction, rng, start_position, approach)
+    walk, (local0, root0), backing, state = approach_seat(body, obj, goal, direction, rng, start_position, approach,
+                                                          arrival)
     plans, info = sit_sequence(body, obj, goal, direction, style, rng, *state, stand_up=stand_up,
                                hold_seconds=(0.8, 1.6))
     interaction = plan_to_motion(Plan.concat(backing + plans), body, start=(local0, root0))
