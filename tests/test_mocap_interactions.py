@@ -144,6 +144,34 @@ def test_sit_arrives_turned_and_sits_down_briskly(clips, name):
     assert np.linalg.norm(before - obj.pose[:2, 3]) >= 1.0
 
 
+@pytest.mark.parametrize("kind", ["sit", "lie"])
+def test_an_arrival_off_the_spot_is_corrected_by_the_sit_down(kind):
+    # With arrival = (0.25 m, 20°) the approach stops beside the spot and turned; the pelvis still
+    # settles exactly on the goal, and the feet stay planted where the walk stopped.
+    category = "sofa" if kind == "lie" else "chair"
+    generate = I.sit if kind == "sit" else I.lie
+    sideways, turned = [], []
+    for seed in range(6):
+        obj = make_object(category, seed=40 + seed)
+        plain = generate(obj, seed=seed, stand_up=False)
+        moved = generate(obj, seed=seed, stand_up=False, arrival=(0.25, math.radians(20.0)))
+        goal = moved.meta[f"{kind}_goal"]
+        start = moved.meta["interaction_start"]
+        where = lambda m: m.root_position[m.meta["interaction_start"], :2].double().numpy()
+        sideways.append(float(np.linalg.norm(where(moved) - where(plain))))
+        turned.append(float(yaw_of_matrix(moved.global_rotations[start, 0]) - yaw_of_matrix(plain.global_rotations[start, 0])))
+        if kind == "sit":
+            pelvis = moved.joints[moved.meta["anchor_frame"], 0].double().numpy()
+            assert np.linalg.norm(pelvis - goal["position"]) < 0.01
+    sideways, turned = np.asarray(sideways), np.abs((np.asarray(turned) + math.pi) % (2 * math.pi) - math.pi)
+    assert sideways.max() <= 0.25 + 0.05 and sideways.max() > 0.05  # off the spot, within the spread
+    assert turned.max() <= math.radians(20.0) + math.radians(6.0) and turned.max() > math.radians(3.0)
+    with pytest.raises(ValueError, match="arrival"):
+        generate(make_object(category, seed=1), seed=0, arrival=(0.25,))
+    with pytest.raises(ValueError, match="arrival"):
+        generate(make_object(category, seed=1), seed=0, arrival=(-0.1, 0.2))
+
+
 def test_crossed_legs_lift_one_foot_off_the_ground(clips):
     _, motion = clips["sit_crossed_legs"]
     names = _names(motion)
