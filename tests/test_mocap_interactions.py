@@ -146,8 +146,8 @@ def test_sit_arrives_turned_and_sits_down_briskly(clips, name):
 
 @pytest.mark.parametrize("kind", ["sit", "lie"])
 def test_an_arrival_off_the_spot_is_corrected_by_the_sit_down(kind):
-    # With arrival = (0.25 m, 20°) the approach stops beside the spot and turned; the pelvis still
-    # settles exactly on the goal, and the feet stay planted where the walk stopped.
+    # With arrival = (0.25 m, 20°) the approach stops beside the spot and turned; a sitting pelvis still
+    # settles exactly on the goal (the sit-down takes it there from wherever the walk stopped).
     category = "sofa" if kind == "lie" else "chair"
     generate = I.sit if kind == "sit" else I.lie
     sideways, turned = [], []
