@@ -428,3 +428,26 @@ def test_captured_states_are_the_toy_mocap_on_one_object():
     room = RoomRunResults(np.array([1.0, math.inf]), np.array([40.0, math.inf]), np.array([5.0, math.inf]),
                           np.array([False, False]), np.zeros(2), rollout=None)
     assert room.summary()["PE"] == 40.0 and room.summary()["execution_time"] == math.inf and room.acted.sum() == 1
+
+
+def test_onset_in_goal_frame_measures_in_front_aside_and_facing_against_the_goal():
+    from hoi_tutorial.samp import evaluation as ev
+
+    walk, sit = SAMP_ACTIONS.index("walk"), SAMP_ACTIONS.index("sit")
+    goal, direction = np.array([1.0, 2.0, 0.45]), np.array([1.0, 0.0, 0.0])  # seated facing +x
+    # forward (−sin h, cos h) = +x at h = −90°; the onset frame is the first labelled "sit"
+    roots = np.array([[0.0, 0.0, 0.0], [1.5, 2.3, -math.pi / 2 + math.radians(30.0)], [1.2, 2.0, -math.pi / 2]])
+    out = ev.onset_in_goal_frame(roots, [walk, sit, sit], goal, direction)
+    assert out["in_front"] == pytest.approx(0.5) and out["aside"] == pytest.approx(0.3)  # +y is left of +x
+    assert out["facing_off"] == pytest.approx(30.0)
+    # the same run turned and moved with its goal measures the same
+    turn = rotation_about_z(torch.tensor(0.7, dtype=torch.float64)).numpy()
+    moved = roots.copy()
+    moved[:, :2] = roots[:, :2] @ turn[:2, :2].T + [3.0, -1.0]
+    moved[:, 2] += 0.7
+    again = ev.onset_in_goal_frame(moved, [walk, sit, sit], turn @ goal + [3.0, -1.0, 0.0], turn @ direction)
+    assert all(again[k] == pytest.approx(out[k]) for k in out)
+    never = ev.onset_in_goal_frame(roots, [walk] * 3, goal, direction)
+    assert all(math.isnan(v) for v in never.values())
+    with pytest.raises(ValueError, match="actions"):
+        ev.onset_in_goal_frame(roots, [walk, sit], goal, direction)

@@ -33,7 +33,7 @@ import numpy as np
 import torch
 
 from .. import intervals
-from .._validate import check_choice
+from .._validate import check_choice, check_shape
 from ..metrics import average_pairwise_distance, execution_time, goal_precision
 from ..world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE
 from ..world.objects import ToyObject, make_object
@@ -43,7 +43,7 @@ from .runtime import GoalSequence, Rollout, current_action, rollout, standing_st
 
 __all__ = ["GoalTask", "goal_tasks", "precision_summary", "paired_over_acted", "GoalRunResults", "run_goal_tasks", "measure_goal_runs", "LOCAL_POSE_FEATURES", "FD_FEATURES",
            "state_features", "direction_runs", "standing_runs", "action_frames", "repeated_goal_runs", "run_spread",
-           "captured_states", "onset_windows", "onset_spread", "MeasuredRuns"]
+           "captured_states", "onset_windows", "onset_spread", "MeasuredRuns", "onset_in_goal_frame"]
 
 
 @dataclass
@@ -351,3 +351,36 @@ def onset_spread(runs, action: str, before: float = 1.0, after: float = 2.0) -> 
     if len(windows) < 2:
         return math.nan, len(windows)
     return run_spread(windows), len(windows)
+
+
+def onset_in_goal_frame(roots, actions, goal_position, goal_direction, action: str = "sit") -> dict:
+    """Where a run (or a clip) began ``action``, seen from its goal: how far in front of the goal and
+    to its side the root was, and how far it faced away from the goal's direction.
+
+    Args:
+        roots: ``(T, 3)`` ``(x, y, heading)`` world; actions: ``(T,)`` SAMP action ids of each frame
+            (a rollout's ``actions[b]``, or ``MotionData.actions`` of one clip).
+        goal_position, goal_direction: ``(3,)`` or ``(2,)`` world; the direction is the one the
+            character faces when seated (away from the seat).
+        action: one of ``SAMP_ACTIONS``.
+    Returns:
+        dict of floats: ``in_front`` (m, along the goal direction), ``aside`` (m, to the goal
+        direction's left), ``facing_off`` (degrees between the root's forward and the goal direction);
+        all ``nan`` when the run never began the action.
+    """
+    check_choice(action, SAMP_ACTIONS, "action")
+    roots = torch.as_tensor(roots, dtype=torch.float64)
+    check_shape(roots, (None, 3), "roots")
+    labels = torch.as_tensor(actions)
+    check_shape(labels, (roots.shape[0],), "actions")
+    onset = torch.nonzero(labels == SAMP_ACTIONS.index(action))
+    if not len(onset):
+        return {"in_front": math.nan, "aside": math.nan, "facing_off": math.nan}
+    x, y, heading = roots[int(onset[0, 0])].tolist()
+    forward = np.array(goal_direction, dtype=np.float64).reshape(-1)[:2]
+    forward /= np.linalg.norm(forward)
+    left = np.array([-forward[1], forward[0]])  # the goal direction turned by +90° about z
+    offset = np.array([x, y]) - np.asarray(goal_position, dtype=np.float64).reshape(-1)[:2]
+    facing = np.array([-math.sin(heading), math.cos(heading)])  # the root's forward (runtime.Rollout.forward)
+    return {"in_front": float(offset @ forward), "aside": float(offset @ left),
+            "facing_off": math.degrees(math.acos(float(np.clip(facing @ forward, -1.0, 1.0))))}
