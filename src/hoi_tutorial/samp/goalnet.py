@@ -34,6 +34,7 @@ from typing import Optional
 import numpy as np
 import torch
 
+from .. import world
 from .._validate import check_choice, check_positive_ints
 from ..infra import (TrainedModel, TrainResult, load_or_build, scaled_config, single_threaded, state_dict_to_cpu,
                      train, trainer_config)
@@ -186,7 +187,7 @@ def goal_data(config: GoalDataConfig, split: str = "train") -> GoalData:
                 "object_voxels": torch.as_tensor(np.stack(object_voxels))}
 
     artifact = load_or_build(f"samp_goal_data_{split}", dataclasses.asdict(config), build,
-                             code=(sys.modules[__name__],), verbose=False)
+                             code=(sys.modules[__name__], world), verbose=False)
     return GoalData(**artifact)
 
 
@@ -306,7 +307,7 @@ def trained_goalnet(data_config: GoalDataConfig, config: GoalNetConfig, device="
                 "kl": float(np.mean(result.extra["kl"][-100:]))}
 
     key = {"data": dataclasses.asdict(data_config), "model": dataclasses.asdict(config)}
-    artifact = load_or_build("samp_goalnet", key, build, code=(core, sys.modules[__name__]))
+    artifact = load_or_build("samp_goalnet", key, build, code=(core, world, sys.modules[__name__]))
     model = build_goalnet(config)
     model.load_state_dict(artifact["state"])
     details = {name: artifact[name] for name in ("n_goals", "n_objects", "reconstruction", "kl")}

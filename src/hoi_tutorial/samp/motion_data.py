@@ -51,6 +51,7 @@ import torch
 
 from .._validate import check_choice, check_shape
 from ..infra import load_or_build, scaled_config
+from .. import world
 from ..world import mocap
 from ..world.body import body_from_motion
 from ..world.features import SAMP_ACTIONS, SAMP_STATE_SIZE, root_frame, samp_action_ids, samp_pose_state
@@ -263,8 +264,8 @@ def object_voxel_cells(obj: ToyObject, resolution: int = 8) -> tuple[np.ndarray,
     Cells in the order of :meth:`ToyObject.interaction_voxels` flattened, so that
     :func:`voxels_in_root_frame` reproduces it.
     """
-    world = obj.interaction_voxels(np.eye(4), resolution).reshape(-1, 4)
-    return world[:, :3].astype(np.float32), world[:, 3].astype(np.float32)
+    cells = obj.interaction_voxels(np.eye(4), resolution).reshape(-1, 4)
+    return cells[:, :3].astype(np.float32), cells[:, 3].astype(np.float32)
 
 
 def voxels_in_root_frame(centres: torch.Tensor, occupancy: torch.Tensor, roots: torch.Tensor) -> torch.Tensor:
@@ -505,8 +506,9 @@ def motion_data(config: MotionDataConfig, split: str = "train") -> MotionData:
                 "voxel_centres": torch.stack(centres), "voxel_occupancy": torch.stack(occupancy),
                 "clip_seeds": [seed for _, seed in _clip_list(config, split)]}
 
+    # the clips come from the toy world (mocap, objects, features): its source is part of the key
     artifact = load_or_build(f"samp_motion_data_{split}", dataclasses.asdict(config), build,
-                             code=(sys.modules[__name__],), verbose=False)
+                             code=(sys.modules[__name__], world), verbose=False)
     data = MotionData(**artifact)
     if data.states.shape[1] != SAMP_STATE_SIZE:
         raise ValueError(f"cached motion data: expected states of {SAMP_STATE_SIZE}, got {data.states.shape[1]}")

@@ -43,6 +43,7 @@ from typing import Optional
 
 import torch
 
+from .. import world
 from .._validate import check_choice, check_positive_ints
 from ..infra import (TrainedModel, TrainerConfig, TrainResult, load_or_build, scaled_config, single_threaded,
                      state_dict_to_cpu, train)
@@ -305,7 +306,7 @@ def trained_motion_model(data_config: MotionDataConfig, config: MotionNetConfig,
 
     key = {"data": dataclasses.asdict(data_config), "model": dataclasses.asdict(config)}
     artifact = load_or_build(f"samp_motion_{config.model}", key, build,
-                             code=(core, goal_frame, motion_data_module, sys.modules[__name__]))
+                             code=(core, goal_frame, motion_data_module, world, sys.modules[__name__]))
     model = build_motion_model(config)
     model.load_state_dict(artifact["state"])
     details = {name: artifact[name] for name in ("n_frames", "n_windows", "steps", "reconstruction", "kl")}
