@@ -35,7 +35,7 @@ occupancy, and :func:`voxels_in_root_frame` expresses them in any root frame, in
 Locomotion clips have no object: their voxels are zeros.
 
 Scaling (paper → toy): ~185K frames of captured motion → a few hundred toy clips (the ``toy``
-preset: about 20K frames), one body (the mean toy subject), objects from the toy world's chairs,
+preset: about 24K frames), one body (the mean toy subject), objects from the toy world's chairs,
 armchairs, stools and sofas; the test split uses new object instances and new clips.
 """
 from __future__ import annotations

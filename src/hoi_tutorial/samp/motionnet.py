@@ -28,7 +28,7 @@ fraction of the autograd overhead.
 Scaling (paper → toy): 100 epochs with ``C1 = 30``, ``C2 = 60`` and ``L = 60`` → 10 epochs with
 ``C1``, ``C2`` at the same 30 % and 60 % of them and ``L = 30`` (1 s); Adam at 5e-5 with linear weight
 decay → Adam at 1e-3 with a cosine learning-rate decay (the paper's rate is for 100 epochs of 185K
-frames; ours sees ~22K frames for 10 epochs); 12 experts → 4, latent 64 → 32, β₁ 0.1 → 1.0, and
+frames; ours sees ~24K frames for 10 epochs); 12 experts → 4, latent 64 → 32, β₁ 0.1 → 1.0, and
 narrower networks (``MOTIONNET_SCALES`` holds the paper's sizes under ``"paper"``). Two choices are
 ours, each measured in the MotionNet chapter: β₁, and what an own-prediction input holds
 (``own_inputs``).
