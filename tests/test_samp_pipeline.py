@@ -127,7 +127,7 @@ def test_an_nsm_like_model_runs_in_a_room_sensing_every_object(tasks):
 def test_the_path_switch_hands_over_to_the_action_once_the_rest_of_the_path_is_short(tasks):
     task = tasks[0]
     goals, waypoints = pl.goals_along_path(task, switch="path")
-    assert all(g[3] == 0.5 for g in goals[:-1])  # every walk goal passed within the waypoint radius
+    assert all(g[3] == pl.WAYPOINT_RADIUS for g in goals[:-1])  # every walk goal passed within the waypoint radius
     path_goals = pl.PathGoals.from_paths([goals], [waypoints], [task.room], action_radius=1.5)
     legs = np.linalg.norm(np.diff(waypoints, axis=0), axis=1)
     expected = np.r_[np.cumsum(legs[::-1])[::-1][1:], 0.0]  # goal k is waypoint k + 1; the spot has 0 left
@@ -143,6 +143,8 @@ def test_the_path_switch_hands_over_to_the_action_once_the_rest_of_the_path_is_s
     assert legs.sum() > 1.5 and int(path_goals.advance(start, far)[0]) < action
     # The waypoint rule needs the last waypoint first.
     old_goals, old_points = pl.goals_along_path(task, switch="waypoints")
-    assert old_goals[-2][3] == 1.5
+    assert old_goals[-2][3] == 1.5 and all(g[3] == pl.WAYPOINT_RADIUS for g in old_goals[:-2])
+    tight, _ = pl.goals_along_path(task, switch="waypoints", waypoint_radius=0.5)
+    assert all(g[3] == 0.5 for g in tight[:-2]) and tight[-2][3] == 1.5
     with pytest.raises(ValueError, match="switch"):
         pl.goals_along_path(task, switch="seat")

@@ -9,7 +9,7 @@ The algorithm box, as :func:`run_room_tasks` runs it:
    where the path turns (``planning.plan_path``).
 3. **Sub-tasks**: "each sub-task requires the character to walk to the next waypoint. The final
    sub-task requires the character to perform the desired action at the final waypoint." The
-   waypoints become walk goals passed in turn within ``waypoint_radius``; once the character is within
+   waypoints become walk goals passed in turn within ``WAYPOINT_RADIUS`` (1 m, ours); once the character is within
    ``action_radius`` of the last one, the standing spot, the goal becomes the sitting goal
    (``switch="waypoints"``, the paper's wording). ``switch="path"`` is the alternative chapter 14
    measures: the waypoints simplified as a navigation mesh's corners would be
@@ -45,11 +45,15 @@ from .motion_data import object_voxel_cells
 from .planning import check_room_point, plan_path, reaches, simplify_waypoints, straight_walk_is_free
 from .runtime import GoalSequence, Rollout, rollout, standing_state
 
-__all__ = ["RoomTask", "room_tasks", "SWITCHES", "goals_along_path", "PathGoals", "room_voxel_cells", "RoomRunResults",
+__all__ = ["RoomTask", "room_tasks", "SWITCHES", "WAYPOINT_RADIUS", "goals_along_path", "PathGoals", "room_voxel_cells", "RoomRunResults",
            "penetrating_frames", "run_room_tasks"]
 
 # How the sitting goal takes over from the walk goals (see the module docstring).
 SWITCHES = ("waypoints", "path")
+# Ours (SAMP does not say how near a waypoint counts as reached): a walk goal is passed within 1 m. A walk clip ends
+# standing on its last waypoint, so a walk goal ahead also reads "stop there"; with 0.5 m, runs that stopped a little
+# short of a waypoint stood there until the time limit (chapter 14 compares the two).
+WAYPOINT_RADIUS = 1.0
 
 
 @dataclass
@@ -127,7 +131,8 @@ def room_tasks(rooms: Sequence, seed: int = 0, min_distance: float = 2.0, goalne
     return tasks
 
 
-def goals_along_path(task: RoomTask, action: str = "sit", planning: bool = True, waypoint_radius: float = 0.5,
+def goals_along_path(task: RoomTask, action: str = "sit", planning: bool = True,
+                     waypoint_radius: float = WAYPOINT_RADIUS,
                      action_radius: float = 1.5, switch: str = "waypoints") -> tuple[list, Optional[np.ndarray]]:
     """The goal list of one run (``runtime.GoalSequence.from_lists`` rows) and its waypoints.
 
@@ -278,19 +283,21 @@ class RoomRunResults(MeasuredRuns):
 
 def run_room_tasks(model: MotionModel, tasks: Sequence[RoomTask], seconds: float = 30.0, seed: int = 0,
                    planning: bool = True, latent_scale: float = 1.0, settle: float = 1.5,
-                   reach_radius: float = 0.3, switch: str = "waypoints", action_radius: float = 1.5) -> RoomRunResults:
+                   reach_radius: float = 0.3, switch: str = "waypoints", action_radius: float = 1.5,
+                   waypoint_radius: float = WAYPOINT_RADIUS) -> RoomRunResults:
     """Run the tasks as one batch, with or without path planning, and measure them (module docstring).
 
     ``switch`` (with planning): ``"path"``, the sitting goal takes over by the rest of the path
     (:class:`PathGoals`), or ``"waypoints"``, after every waypoint (:func:`goals_along_path`), within
-    ``action_radius`` metres.
+    ``action_radius`` metres; walk waypoints before it are passed within ``waypoint_radius`` metres.
     """
     if not tasks:
         raise ValueError("tasks: expected at least one RoomTask")
     check_choice(switch, SWITCHES, "switch")
     fps = 30.0
     n_frames = int(round(seconds * fps))
-    plans = [goals_along_path(t, planning=planning, switch=switch, action_radius=action_radius) for t in tasks]
+    plans = [goals_along_path(t, planning=planning, switch=switch, action_radius=action_radius,
+                              waypoint_radius=waypoint_radius) for t in tasks]
     if planning and switch == "path":
         goals = PathGoals.from_paths([g for g, _ in plans], [w for _, w in plans], [t.room for t in tasks],
                                      action_radius)
