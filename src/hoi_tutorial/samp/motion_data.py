@@ -53,7 +53,7 @@ from .._validate import check_choice, check_shape
 from ..infra import load_or_build, scaled_config
 from .. import world
 from ..world import mocap
-from ..world.body import body_from_motion
+from ..world.mocap.sitting import lowest_clearance
 from ..world.features import SAMP_ACTIONS, SAMP_STATE_SIZE, root_frame, samp_action_ids, samp_pose_state
 from ..world.motion import ACTIONS, Motion
 from ..world.objects import ToyObject, make_object
@@ -314,11 +314,7 @@ def approach_clearance(motion: Motion, obj: ToyObject, stride: int = 2) -> float
     clip's first sit-down or lie-down (every ``stride``-th frame); negative: the body is inside."""
     names = [ACTIONS[a] for a in motion.actions]
     first = next((k for k, a in enumerate(names) if a in ("sit_down", "sit", "lie_down", "lie")), len(names))
-    frames = list(range(0, first, stride))
-    if not frames:
-        return math.inf
-    vertices = body_from_motion(motion, frames).double().numpy().reshape(-1, 3)
-    return float(obj.sdf(vertices).min())
+    return lowest_clearance(motion, obj, list(range(0, first, stride)))
 
 
 def make_clip(kind: str, seed: int, obj: Optional[ToyObject] = None, walk_first_share: float = 0.0):

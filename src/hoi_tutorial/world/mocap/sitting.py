@@ -29,7 +29,7 @@ from .poses import standing_pose
 from .standing import standing_plan, step_feet
 
 __all__ = ["SIT_STYLES", "sit", "SitInfo", "sit_sequence", "approach_seat", "front_is_free", "seated_hands",
-           "lift_path", "lift_relax"]
+           "lift_path", "lift_relax", "lowest_clearance"]
 
 SIT_STYLES = ("hands_on_knees", "leaning_back", "crossed_legs", "upright")
 
@@ -412,7 +412,7 @@ def sit_sequence(body: PlanBody, obj, goal, direction, style, rng, start_root, a
     return plans, info
 
 
-def _lowest_clearance(motion: Motion, obj, frames) -> float:
+def lowest_clearance(motion: Motion, obj, frames) -> float:
     """Smallest signed distance (metres) from ``obj`` to the body surface over ``frames`` of ``motion``."""
     vertices = body_from_motion(motion, frames).double().numpy().reshape(-1, 3)
     return float(obj.sdf(vertices).min()) if len(vertices) else math.inf
@@ -462,9 +462,9 @@ def approach_seat(body: PlanBody, obj, goal, direction, rng, start_position, app
             # no closer than standing on the spot does (where the calves may touch a seat too
             # high for the seated legs to reach farther), and never more than 1.5 cm into it.
             near = np.linalg.norm(walk.root_position[:, :2].double().numpy() - spot[None], axis=-1) < 0.55
-            standing = _lowest_clearance(walk, obj, [len(walk) - 1])
+            standing = lowest_clearance(walk, obj, [len(walk) - 1])
             limit = max(min(standing, 0.0) - 0.005, -0.015)
-            if _lowest_clearance(walk, obj, np.flatnonzero(near)) < limit:
+            if lowest_clearance(walk, obj, np.flatnonzero(near)) < limit:
                 back = lane
                 waypoints = waypoints.copy()
                 waypoints[-1] = waypoints[-1] + lane * direction[:2]
