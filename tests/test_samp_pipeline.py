@@ -98,6 +98,15 @@ def test_room_run_end_to_end_with_and_without_planning(tasks):
         assert result.rollout.states.shape == (2, 13, SAMP_STATE_SIZE)
         assert result.penetration.shape == (2,) and 0.0 <= result.penetration_percent <= 100.0
         assert (result.waypoints[0] is None) == (not planning)
+        for b, frame in enumerate(result.handover_frames()):
+            if not planning:
+                assert frame == 0  # the seat is the only goal from the start
+                continue
+            last = len(result.waypoints[b]) - 1
+            under = (result.rollout.goal_index[b] == last).numpy()
+            assert (frame is None) == (not under.any())
+            if frame is not None:
+                assert under[frame] and not under[:frame].any()
     with pytest.raises(ValueError, match="tasks"):
         pl.run_room_tasks(model, [])
 

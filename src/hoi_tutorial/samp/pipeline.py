@@ -275,6 +275,19 @@ class RoomRunResults(MeasuredRuns):
     waypoints: list = field(repr=False, default_factory=list)
     reach_radius: float = 0.3
 
+    def handover_frames(self) -> list:
+        """Per run, the first frame under the action's goal (the seat), after the walk goals: 0 without
+        planning, None where the character never passed its walk goals."""
+        frames = []
+        for b, waypoints in enumerate(self.waypoints):
+            if waypoints is None:
+                frames.append(0)
+                continue
+            # one walk goal per waypoint after the start, then the action
+            under = torch.nonzero(self.rollout.goal_index[b] == len(waypoints) - 1)
+            frames.append(int(under[0, 0]) if len(under) else None)
+        return frames
+
     @property
     def penetration_percent(self) -> float:
         """Frames with a penetration over all runs' frames, percent."""
