@@ -132,7 +132,8 @@ def _motionnet(device, steps, **overrides):
     windows = len(data.windows(8))
     values = {"state_hidden": (32, 16, 16), "interaction_hidden": (16, 16), "interaction_out": 8,
               "gating_hidden": (16, 8), "prediction_hidden": 32, "n_experts": 3, "latent": 4, "mlp_hidden": (32, 32),
-              "rollout": 8, "epochs": 1, "c1": 0.0, "c2": 0.5, "batch_size": math.ceil(windows / steps)}
+              "rollout": 8, "epochs": 1, "steps": None, "c1": 0.0, "c2": 0.5,
+              "batch_size": math.ceil(windows / steps)}
     model, result = mn.train_motion_model(data, mn.motionnet_config(**{**values, **overrides}), device=device)
     if set(result.extra["teacher_forcing"]) != {0.0}:
         raise AssertionError("expected own-prediction inputs (P = 0) at every step")

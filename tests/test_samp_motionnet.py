@@ -16,7 +16,7 @@ pytestmark = pytest.mark.usefixtures("one_cpu_thread")
 
 
 def _tiny_data_config(**overrides):
-    values = {"clips": (("idle", 1), ("walk", 2), ("sit", 2), ("lie", 1)), "test_clips": 1}
+    values = {"clips": (("idle", 1), ("walk", 2), ("sit", 2), ("lie", 1)), "test_clips": 1, "augmented": 0}
     values.update(overrides)
     return md.motion_data_config("toy", **values)
 
@@ -24,7 +24,7 @@ def _tiny_data_config(**overrides):
 def _tiny_model_config(**overrides):
     values = {"state_hidden": (32, 16, 16), "interaction_hidden": (16, 16), "interaction_out": 8,
               "gating_hidden": (16, 8), "prediction_hidden": 32, "n_experts": 3, "latent": 4,
-              "mlp_hidden": (32, 32), "rollout": 8, "epochs": 2, "c1": 0.0, "c2": 1.0, "batch_size": 4}
+              "mlp_hidden": (32, 32), "rollout": 8, "epochs": 2, "steps": None, "c1": 0.0, "c2": 1.0, "batch_size": 4}
     values.update(overrides)
     return mn.motionnet_config("toy", **values)
 
@@ -205,6 +205,40 @@ def test_motion_data_layout(tmp_cache):
         md.motion_data_config(clips=(("swim", 2),))
 
 
+def test_augmented_copies_follow_the_captured_clips_on_new_objects_with_their_goals(tmp_cache):
+    # §4.2: each sit and lie training clip again on another object of its category, its goal moved with the seat
+    captured = md.motion_data(_tiny_data_config(), "train")
+    data = md.motion_data(_tiny_data_config(augmented=2), "train")
+    n = captured.n_clips
+    assert data.n_clips == n + 2 * 3 and (data.clip_augmented[:n] == -1).all()  # 2 copies of sit, sit, lie
+    torch.testing.assert_close(data.states[:len(captured)], captured.states)
+    assert data.clip_augmented[n:].tolist() == [0, 1, 0, 1, 0, 1]
+    moved = []
+    for clip in range(n, data.n_clips):
+        source = [c for c in range(n) if captured.clip_seeds[c] == data.clip_seeds[clip]
+                  and captured.clip_kind[c] == data.clip_kind[clip]][0]
+        kind = md.MOTION_KINDS[int(data.clip_kind[clip])]
+        motion, obj = md.make_clip(kind, data.clip_seeds[clip])
+        new = md.augmented_object(obj, data.clip_seeds[clip], int(data.clip_augmented[clip]))
+        assert new.category == obj.category and new.params != obj.params
+        # the copy's voxels are the new object's
+        o = int(data.clip_object[clip])
+        assert not torch.equal(data.voxel_occupancy[o], captured.voxel_occupancy[int(captured.clip_object[source])])
+        # its goal keeps the captured goal's distance to the seat, now the new one's; the pelvis ends as far from it
+        last, last_source = data.clip_slice(clip).stop - 1, captured.clip_slice(source).stop - 1
+        key = "sit_goal" if kind == "sit" else "lie_goal"
+        goal = data.goal_positions[last].double().numpy()
+        assert abs(float(new.sdf(goal[None])[0]) - float(obj.sdf(np.asarray(motion.meta[key]["position"])[None])[0])) < 0.005
+        moved.append(float((data.goal_positions[last] - captured.goal_positions[last_source]).norm()))
+    assert max(moved) > 0.02, "some goal moved with its seat"
+    test = md.motion_data(_tiny_data_config(augmented=2), "test")
+    assert (test.clip_augmented == -1).all(), "the test split is never augmented"
+    with pytest.raises(ValueError, match="augmented"):
+        md.motion_data_config(augmented=-1)
+    with pytest.raises(ValueError, match="copy"):
+        md.augmented_object(obj, 0, -1)
+
+
 def test_networks_shapes_and_errors():
     torch.manual_seed(0)
     x, v = torch.randn(5, SAMP_STATE_SIZE), torch.randn(5, core.VOXEL_SIZE)
@@ -233,6 +267,12 @@ def test_training_runs_scheduled_sampling_and_lowers_the_loss(tmp_cache):
     assert p[0] == 1.0 and p[-1] == 0.0  # Eq. 5 ran from ground truth to own predictions
     early, late = np.mean(result.losses[:5]), np.mean(result.losses[-5:])
     assert np.isfinite(late) and late < early
+    # a budget fixed in steps stretches Eq. 5 over them: P = 1 for the first C1 / epochs of the steps
+    _, fixed = mn.train_motion_model(data, _tiny_model_config(epochs=4, steps=12, c1=1.0, c2=3.0))
+    expected = [mn.teacher_forcing_probability(step // 3 + 1, 1.0, 3.0) for step in range(12)]
+    assert len(fixed.losses) == 12 and fixed.extra["teacher_forcing"] == pytest.approx(expected)
+    with pytest.raises(ValueError, match="steps"):
+        mn.motionnet_config(steps=0)
     # without scheduled sampling P stays 1
     _, flat = mn.train_motion_model(data, _tiny_model_config(epochs=1, scheduled_sampling=False))
     assert set(flat.extra["teacher_forcing"]) == {1.0}

@@ -23,6 +23,13 @@ with the goal the clip is heading for:
   "walk" ("run"): the run-time controller walks waypoint to waypoint the same way (§3.3).
 - **idle**: where the clip stands, facing its own facing, action "idle".
 
+**Augmentation** (§4.2: "we augment our data by randomly switching or scaling the object"):
+``MotionDataConfig.augmented`` copies of every sit and lie training clip move it onto another
+object of its category (:func:`augmented_object`: a new instance, its sizes drawn anew within the
+category's ranges, so a switch and a scaling at once) by ``augmentation.augment_clip``, which keeps
+the contacts by projection and IK and moves the clip's goal with the seat. The copies follow the
+captured clips (``MotionData.clip_augmented``); the test split is never augmented.
+
 The root of every frame is ``(x, y, heading)`` of ``world.features.root_frame``. MotionNet predicts
 the next state in its own root frame together with the root's displacement ``(dx, dy, dθ)``
 expressed in the previous root frame (the Neural State Machine's root update, Starke et al. 2019,
@@ -57,6 +64,7 @@ from ..world.mocap.sitting import lowest_clearance
 from ..world.features import SAMP_ACTIONS, SAMP_STATE_SIZE, root_frame, samp_action_ids, samp_pose_state
 from ..world.motion import ACTIONS, Motion
 from ..world.objects import ToyObject, make_object
+from . import augmentation
 from .sensor import sensor_voxels
 
 __all__ = [
@@ -82,6 +90,7 @@ __all__ = [
     "approach_start",
     "approach_clearance",
     "make_clip",
+    "augmented_object",
     "motion_data",
 ]
 
@@ -104,12 +113,16 @@ class MotionDataConfig:
         test_clips: clips per kind in the test split (new clips, new object instances).
         walk_first_share: the share of sit and lie clips that walk to the end of their approach
             under a walk goal first (see the module docstring; ours, SAMP labels no such goals).
+        augmented: copies of every sit and lie training clip on another object of its category
+            (§4.2's augmentation, :func:`augmented_object`); 0 (the presets) trains on the captured
+            clips alone. The baselines chapter trains with one copy beside the preset and compares.
         seed: seeds every clip and object.
     """
 
     clips: tuple = (("idle", 10), ("walk", 24), ("run", 8), ("sit", 40), ("lie", 16))
     test_clips: int = 6
     walk_first_share: float = 0.0
+    augmented: int = 0
     seed: int = 0
 
     def __post_init__(self):
@@ -121,6 +134,8 @@ class MotionDataConfig:
             raise ValueError(f"test_clips: expected a positive int, got {self.test_clips!r}")
         if not 0.0 <= self.walk_first_share <= 1.0:
             raise ValueError(f"walk_first_share: expected a share in [0, 1], got {self.walk_first_share!r}")
+        if not isinstance(self.augmented, int) or isinstance(self.augmented, bool) or self.augmented < 0:
+            raise ValueError(f"augmented: expected a count >= 0 (copies per sit and lie clip), got {self.augmented!r}")
 
 
 MOTION_DATA_SCALES = {
@@ -362,6 +377,17 @@ def make_clip(kind: str, seed: int, obj: Optional[ToyObject] = None, walk_first_
     return motion, obj
 
 
+def augmented_object(obj: ToyObject, seed: int, copy: int) -> ToyObject:
+    """The object the ``copy``-th augmented copy of a clip made from ``seed`` on ``obj`` moves to:
+    another instance of ``obj``'s category, at ``obj``'s pose (§4.2: "randomly switching or scaling
+    the object"; the instance's sizes are drawn within ``world.objects.CATEGORY_SIZES``, Supp. F's
+    "random object of a similar size")."""
+    if not isinstance(copy, int) or copy < 0:
+        raise ValueError(f"copy: expected an int >= 0, got {copy!r}")
+    draw = int(np.random.default_rng([int(seed), 11, copy]).integers(2**31))
+    return make_object(obj.category, seed=draw).with_pose(obj.pose)
+
+
 def clip_states(motion: Motion) -> tuple[torch.Tensor, torch.Tensor]:
     """A clip from :func:`make_clip` as SAMP states with its goals (:func:`clip_goals`).
 
@@ -390,7 +416,9 @@ class MotionData:
         clip_object: ``(n_clips,)`` int64 row of ``voxel_centres`` / ``voxel_occupancy``, −1 for none.
         voxel_centres: ``(n_objects, 512, 3)`` world cell centres; ``voxel_occupancy (n_objects, 512)``.
         clip_seeds: the seed each clip was made from: ``make_clip(MOTION_KINDS[kind], seed)`` remakes
-            its ``Motion`` and object.
+            its ``Motion`` and object (an augmented copy's: the captured clip it was made from).
+        clip_augmented: ``(n_clips,)`` int64 −1 for a captured clip, else which copy
+            (:func:`augmented_object`); the copies follow every captured clip.
     """
 
     states: torch.Tensor
@@ -405,6 +433,7 @@ class MotionData:
     voxel_centres: torch.Tensor
     voxel_occupancy: torch.Tensor
     clip_seeds: list
+    clip_augmented: torch.Tensor
 
     def __len__(self) -> int:
         return int(self.states.shape[0])
@@ -472,9 +501,9 @@ def motion_data(config: MotionDataConfig, split: str = "train") -> MotionData:
 
     def build():
         states, roots, goal_p, goal_d, goal_a, actions, starts, kinds, objects = [], [], [], [], [], [], [0], [], []
-        centres, occupancy = [], []
-        for kind, seed in _clip_list(config, split):
-            motion, obj = make_clip(kind, seed, walk_first_share=config.walk_first_share)
+        centres, occupancy, seeds, augmented, copies = [], [], [], [], []
+
+        def add(kind, seed, motion, obj, copy):
             positions, directions, goal_actions = clip_goals(motion)
             flat, root = clip_states(motion)
             states.append(flat)
@@ -485,6 +514,8 @@ def motion_data(config: MotionDataConfig, split: str = "train") -> MotionData:
             actions.append(torch.as_tensor(samp_action_ids(motion.actions)))
             starts.append(starts[-1] + len(motion))
             kinds.append(MOTION_KINDS.index(kind))
+            seeds.append(seed)
+            augmented.append(copy)
             if obj is None:
                 objects.append(-1)
             else:
@@ -492,6 +523,16 @@ def motion_data(config: MotionDataConfig, split: str = "train") -> MotionData:
                 objects.append(len(centres))
                 centres.append(torch.as_tensor(c))
                 occupancy.append(torch.as_tensor(o))
+
+        n_copies = config.augmented if split == "train" else 0
+        for kind, seed in _clip_list(config, split):
+            motion, obj = make_clip(kind, seed, walk_first_share=config.walk_first_share)
+            add(kind, seed, motion, obj, -1)
+            if obj is not None:
+                copies.extend((kind, seed, motion, obj, k) for k in range(n_copies))
+        for kind, seed, motion, obj, k in copies:  # §4.2: the same interaction on another object
+            new = augmented_object(obj, seed, k)
+            add(kind, seed, augmentation.augment_clip(motion, obj, new), new, k)
         if not centres:
             centres, occupancy = [torch.zeros(512, 3)], [torch.zeros(512)]
         return {"states": torch.cat(states), "roots": torch.cat(roots), "goal_positions": torch.cat(goal_p),
@@ -500,11 +541,11 @@ def motion_data(config: MotionDataConfig, split: str = "train") -> MotionData:
                 "clip_kind": torch.as_tensor(kinds, dtype=torch.int64),
                 "clip_object": torch.as_tensor(objects, dtype=torch.int64),
                 "voxel_centres": torch.stack(centres), "voxel_occupancy": torch.stack(occupancy),
-                "clip_seeds": [seed for _, seed in _clip_list(config, split)]}
+                "clip_seeds": seeds, "clip_augmented": torch.as_tensor(augmented, dtype=torch.int64)}
 
-    # the clips come from the toy world (mocap, objects, features): its source is part of the key
+    # the clips come from the toy world (mocap, objects, features) and the augmentation: their source is part of the key
     artifact = load_or_build(f"samp_motion_data_{split}", dataclasses.asdict(config), build,
-                             code=(sys.modules[__name__], world), verbose=False)
+                             code=(sys.modules[__name__], augmentation, world), verbose=False)
     data = MotionData(**artifact)
     if data.states.shape[1] != SAMP_STATE_SIZE:
         raise ValueError(f"cached motion data: expected states of {SAMP_STATE_SIZE}, got {data.states.shape[1]}")

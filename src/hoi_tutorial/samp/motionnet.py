@@ -49,7 +49,7 @@ from ..infra import (TrainedModel, TrainerConfig, TrainResult, load_or_build, sc
                      state_dict_to_cpu, train)
 from ..nn.cvae import gaussian_kl
 from ..world.features import SAMP_STATE_LAYOUT, SAMP_STATE_SIZE
-from . import core, goal_frame, motion_data as motion_data_module
+from . import augmentation, core, goal_frame, motion_data as motion_data_module
 from .core import MLPMotionModel, MotionModel, MotionNet
 from .motion_data import (ROOT_SIZE, MotionData, MotionDataConfig, apply_root_displacement, motion_data,
                           root_displacement)
@@ -122,6 +122,10 @@ class MotionNetConfig:
             the character walks wherever its draw says rather than to its goal).
         rollout: ``L``, steps per training window (B.3: 60).
         epochs, c1, c2: passes over the windows, and Eq. 5's breakpoints in epochs (B.3: 100, 30, 60).
+        steps: a fixed number of optimiser steps, None (the presets) for ``epochs`` full passes.
+            When set, Eq. 5's epochs are ``steps / epochs`` steps each, so the schedule keeps its
+            shape whatever the amount of data: a model trained on more data (§4.2's augmentation)
+            can be given the same budget as the one it is compared with.
         batch_size, lr, grad_clip: optimisation (the paper's batch size is not stated).
         own_inputs: what an own-prediction input holds besides the prediction. ``"ground_truth"``:
             the ground truth's goal ``g^p, g^d, g^a`` and voxels (SAMP's public training code, which
@@ -147,6 +151,7 @@ class MotionNetConfig:
     kl_weight: float = 1.0
     rollout: int = 30
     epochs: int = 10
+    steps: Optional[int] = None
     c1: float = 3.0
     c2: float = 6.0
     batch_size: int = 16
@@ -160,6 +165,8 @@ class MotionNetConfig:
         check_choice(self.own_inputs, OWN_INPUTS, "own_inputs")
         check_positive_ints(self, ("interaction_out", "prediction_hidden", "n_experts", "latent", "rollout", "epochs",
                                    "batch_size"))
+        if self.steps is not None and (not isinstance(self.steps, int) or isinstance(self.steps, bool) or self.steps < 1):
+            raise ValueError(f"steps: expected a positive int or None (epochs of the data), got {self.steps!r}")
         teacher_forcing_probability(0, self.c1, self.c2)  # validates C1 < C2
         if not self.kl_weight >= 0:
             raise ValueError(f"kl_weight: expected a number >= 0, got {self.kl_weight!r}")
@@ -222,12 +229,12 @@ def train_motion_model(data: MotionData, config: MotionNetConfig, device="cpu",
     model.set_statistics(data.states, targets[1:], data.voxels(sample_frames, sensor=sensor))
     mask = goal_feature_mask()
     goal_actions = data.goal_actions
-    steps_per_epoch = math.ceil(len(starts) / config.batch_size)
-    steps = config.epochs * steps_per_epoch
+    steps = config.steps or config.epochs * math.ceil(len(starts) / config.batch_size)
+    steps_per_epoch = steps / config.epochs  # Eq. 5's epoch; a fraction when the budget is fixed in steps
     latent = model.latent
 
     def sample_batch(step: int, generator: torch.Generator):
-        epoch = step // steps_per_epoch + 1
+        epoch = int(step // steps_per_epoch) + 1
         p = teacher_forcing_probability(epoch, config.c1, config.c2) if config.scheduled_sampling else 1.0
         first = starts[torch.randint(0, len(starts), (config.batch_size,), generator=generator)]
         frames = first[:, None] + torch.arange(L + 1)[None]  # (B, L + 1)
@@ -306,7 +313,7 @@ def trained_motion_model(data_config: MotionDataConfig, config: MotionNetConfig,
 
     key = {"data": dataclasses.asdict(data_config), "model": dataclasses.asdict(config)}
     artifact = load_or_build(f"samp_motion_{config.model}", key, build,
-                             code=(core, goal_frame, motion_data_module, world, sys.modules[__name__]))
+                             code=(augmentation, core, goal_frame, motion_data_module, world, sys.modules[__name__]))
     model = build_motion_model(config)
     model.load_state_dict(artifact["state"])
     details = {name: artifact[name] for name in ("n_frames", "n_windows", "steps", "reconstruction", "kl")}
