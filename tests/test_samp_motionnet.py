@@ -271,6 +271,8 @@ def test_training_runs_scheduled_sampling_and_lowers_the_loss(tmp_cache):
     _, fixed = mn.train_motion_model(data, _tiny_model_config(epochs=4, steps=12, c1=1.0, c2=3.0))
     expected = [mn.teacher_forcing_probability(step // 3 + 1, 1.0, 3.0) for step in range(12)]
     assert len(fixed.losses) == 12 and fixed.extra["teacher_forcing"] == pytest.approx(expected)
+    assert mn.training_steps(data, _tiny_model_config(epochs=4, steps=12)) == 12
+    assert mn.training_steps(data, config) == len(result.losses) == 6 * math.ceil(len(data.windows(8)) / 4)
     with pytest.raises(ValueError, match="steps"):
         mn.motionnet_config(steps=0)
     # without scheduled sampling P stays 1

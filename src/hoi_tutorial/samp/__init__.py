@@ -18,5 +18,6 @@ Modules, in the order of the paper:
   where the path changes direction that the character walks to in turn (§3.3, Appendix E).
 - ``paper_numbers``: the paper's reported numbers, transcribed, for the tables set beside ours.
 
-The augmentation is not yet used in training.
+``motion_data`` applies the augmentation to the training clips when ``MotionDataConfig.augmented`` asks for
+copies; the presets train on the captured clips alone, and the baselines chapter measures one copy against none.
 """

@@ -67,6 +67,7 @@ __all__ = [
     "motionnet_config",
     "build_motion_model",
     "training_targets",
+    "training_steps",
     "train_motion_model",
     "trained_motion_model",
 ]
@@ -209,6 +210,12 @@ def training_targets(data: MotionData) -> torch.Tensor:
     return torch.cat([data.states, displacement], dim=-1)
 
 
+def training_steps(data: MotionData, config: MotionNetConfig) -> int:
+    """How many optimiser steps :func:`train_motion_model` takes on ``data``: ``config.steps``, or
+    ``epochs`` passes over the windows of ``L + 1`` frames at ``batch_size``."""
+    return config.steps or config.epochs * math.ceil(len(data.windows(config.rollout)) / config.batch_size)
+
+
 @single_threaded
 def train_motion_model(data: MotionData, config: MotionNetConfig, device="cpu",
                        progress: bool = False) -> tuple[MotionModel, TrainResult]:
@@ -229,7 +236,7 @@ def train_motion_model(data: MotionData, config: MotionNetConfig, device="cpu",
     model.set_statistics(data.states, targets[1:], data.voxels(sample_frames, sensor=sensor))
     mask = goal_feature_mask()
     goal_actions = data.goal_actions
-    steps = config.steps or config.epochs * math.ceil(len(starts) / config.batch_size)
+    steps = training_steps(data, config)
     steps_per_epoch = steps / config.epochs  # Eq. 5's epoch; a fraction when the budget is fixed in steps
     latent = model.latent
 
