@@ -224,7 +224,7 @@ def test_augmented_copies_follow_the_captured_clips_on_new_objects_with_their_go
         # the copy's voxels are the new object's
         o = int(data.clip_object[clip])
         assert not torch.equal(data.voxel_occupancy[o], captured.voxel_occupancy[int(captured.clip_object[source])])
-        # its goal keeps the captured goal's distance to the seat, now the new one's; the pelvis ends as far from it
+        # its goal keeps the captured goal's distance to the seat, now the new one's
         last, last_source = data.clip_slice(clip).stop - 1, captured.clip_slice(source).stop - 1
         key = "sit_goal" if kind == "sit" else "lie_goal"
         goal = data.goal_positions[last].double().numpy()
