@@ -1,6 +1,6 @@
 """Time one step of CHOICE's goal-driven controller at run time with the Kalman-filtered goal phase
 (§5.1–5.2, Algorithm 1): batch 1, CPU — the network, Eq. 14's blend, Eq. 22's deviation and one
-``kalman.filter_step`` — as ``controller.rollout`` runs it, frame after frame.
+``kalman.filter_step`` — as ``runtime.rollout`` runs it, frame after frame.
 
 The weights are freshly initialised (speed does not depend on training); sizes are the ``toy``
 preset's unless ``--scale`` says otherwise. It measures and never gates (exit code 0). The target is
@@ -18,7 +18,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 import torch  # noqa: E402
 
-from hoi_tutorial.choice import controller, phase  # noqa: E402
+from hoi_tutorial.choice.controller import features, network as ctrl_network, phase, runtime  # noqa: E402
 from hoi_tutorial.infra import threads_allowed  # noqa: E402
 from hoi_tutorial.world import mocap  # noqa: E402
 
@@ -26,21 +26,21 @@ from hoi_tutorial.world import mocap  # noqa: E402
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--scale", default="toy", choices=("toy", "small", "paper"))
-    parser.add_argument("--variant", default="kalman", choices=controller.VARIANTS)
+    parser.add_argument("--variant", default="kalman", choices=features.VARIANTS)
     parser.add_argument("--steps", type=int, default=600)
     parser.add_argument("--threads", type=int, default=1)
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
-    config = controller.controller_config(args.scale)
+    config = ctrl_network.controller_config(args.scale)
     torch.manual_seed(0)
     pae = phase.build_phase_autoencoder(phase.phase_config(config.phase_scale)).eval()
-    model = controller.build_controller(config, pae).eval()
+    model = ctrl_network.build_controller(config, pae).eval()
     clip = mocap.generate_dataset(1, seed=0, kinds=("reach_grasp",))
-    state, goal = controller.initial_state(model, clip), controller.clip_goal(model, clip)
-    controller.rollout(model, state, goal, 20, args.variant)  # warm-up
+    state, goal = runtime.initial_state(model, clip), runtime.clip_goal(model, clip)
+    runtime.rollout(model, state, goal, 20, args.variant)  # warm-up
     with threads_allowed(args.threads):
         t0 = time.perf_counter()
-        controller.rollout(model, state, goal, args.steps, args.variant)
+        runtime.rollout(model, state, goal, args.steps, args.variant)
         seconds = time.perf_counter() - t0
     x = torch.zeros(1, model.in_size)
     with torch.no_grad(), threads_allowed(args.threads):

@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from hoi_tutorial.choice import fields
+from hoi_tutorial.choice.planner import fields
 from hoi_tutorial.world.mocap.grasping import reach_grasp
 from hoi_tutorial.world.objects import make_object, object_from_description
 

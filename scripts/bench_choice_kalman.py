@@ -12,7 +12,7 @@ import time
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from hoi_tutorial.choice import kalman
+from hoi_tutorial.choice.controller import kalman
 
 PHASE = kalman.PHASE
 

@@ -13,7 +13,7 @@ import time
 import numpy as np
 import torch
 
-from hoi_tutorial.choice import data, evaluation, planner
+from hoi_tutorial.choice.planner import interactions, intp, table3
 
 
 def main():
@@ -22,16 +22,16 @@ def main():
     parser.add_argument("--threads", type=int, default=2)
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
-    data_config = data.planner_data_config("toy")
-    config = planner.planner_config("toy")
-    train = data.interaction_set(data_config, "train")
-    test = data.interaction_set(data_config, "test")
-    model = planner.trained_planner(data_config, config).model
-    cases = evaluation.planning_cases(test, data_config.field, reshape=False)[: args.cases]
+    data_config = interactions.planner_data_config("toy")
+    config = intp.planner_config("toy")
+    train = interactions.interaction_set(data_config, "train")
+    test = interactions.interaction_set(data_config, "test")
+    model = intp.trained_planner(data_config, config).model
+    cases = table3.planning_cases(test, data_config.field, reshape=False)[: args.cases]
     fits, totals = [], []
     for case in cases:
         start = time.perf_counter()
-        plans = planner.plan_each_init(model, config, train, case.scene, case.condition, case.start, case.goal,
+        plans = intp.plan_each_init(model, config, train, case.scene, case.condition, case.start, case.goal,
                                        inits=range(config.inits))
         totals.append(time.perf_counter() - start)
         fits.append(plans[0].fit.seconds)

@@ -26,9 +26,9 @@ always trains and no other cache is touched. The checks call the ``train_*`` fun
                            inputs as the public code (12-14); own predictions from the start, one epoch
                            whose batch size gives about --steps steps
     planner, diffusion_policy, phase, controller
-                           choice.planner, choice.baselines, choice.phase, choice.controller (16-19); the
-                           controller on an untrained PAE
-    controller_cached      choice.controller.trained_controller, the one wrapper called: it trains its PAE
+                           choice.planner.intp, choice.planner.baselines, choice.controller.phase,
+                           choice.controller.network (16-19); the controller on an untrained PAE
+    controller_cached      choice.controller.network.trained_controller, the one wrapper called: it trains its PAE
                            too, and the model it returns must be wholly on the CPU
 """
 import argparse
@@ -46,8 +46,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 import torch  # noqa: E402
 
-from hoi_tutorial.choice import baselines as choice_baselines, controller as ct, data as choice_data  # noqa: E402
-from hoi_tutorial.choice import phase as ph, planner as pl  # noqa: E402
+from hoi_tutorial.choice.controller import network, phase as ph  # noqa: E402
+from hoi_tutorial.choice.planner import baselines as choice_baselines, interactions as choice_interactions  # noqa: E402
+from hoi_tutorial.choice.planner import intp as pl  # noqa: E402
 from hoi_tutorial.nifty import baselines as nifty_baselines, interaction_field as inf, motion_model as mm  # noqa: E402
 from hoi_tutorial.nifty import motion_prior as mp, toy2d as t2, trajectories as tj  # noqa: E402
 from hoi_tutorial.samp import goalnet as gn, motion_data as md, motionnet as mn  # noqa: E402
@@ -147,7 +148,7 @@ for variant, overrides in MOTIONNET_VARIANTS.items():
 
 
 def _interactions():
-    return choice_data.interaction_set(choice_data.planner_data_config(n_clips=1, n_test_clips=1), "train")
+    return choice_interactions.interaction_set(choice_interactions.planner_data_config(n_clips=1, n_test_clips=1), "train")
 
 
 @check("planner")
@@ -176,14 +177,14 @@ CONTROLLER_SIZES = {"hidden": 32, "gating_hidden": 16, "n_experts": 2, "batch_si
 @check("controller")
 def controller(device, steps):
     pae = ph.build_phase_autoencoder(ph.phase_config()).eval()
-    config = ct.controller_config(clips=2, steps=steps, unroll_steps=steps // 2, **CONTROLLER_SIZES)
-    return ct.train_controller(ct.controller_data(config, pae), config, pae, device=device)
+    config = network.controller_config(clips=2, steps=steps, unroll_steps=steps // 2, **CONTROLLER_SIZES)
+    return network.train_controller(network.controller_data(config, pae), config, pae, device=device)
 
 
 @check("controller_cached", cached=True)
 def controller_cached(device, steps):
-    config = ct.controller_config(clips=1, steps=steps, unroll_steps=steps // 2, phase_steps=steps, **CONTROLLER_SIZES)
-    trained = ct.trained_controller(config, device=device)
+    config = network.controller_config(clips=1, steps=steps, unroll_steps=steps // 2, phase_steps=steps, **CONTROLLER_SIZES)
+    trained = network.trained_controller(config, device=device)
     return trained.model, trained  # a TrainedModel, which has .losses too
 
 

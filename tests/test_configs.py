@@ -16,8 +16,9 @@ from hoi_tutorial.infra import SCALES, artifact_key, scaled_config
 from hoi_tutorial.nifty import (baselines, data, evaluation, interaction_field, motion_model, motion_prior, rollout,
                                 toy2d, trajectories)
 from hoi_tutorial.samp import goalnet, motion_data, motionnet
-from hoi_tutorial.choice import (baselines as choice_baselines, controller, data as choice_data, environment, fields,
-                                 navigation, phase, pick_and_place, planner, scheduler)
+from hoi_tutorial.choice.controller import network, phase
+from hoi_tutorial.choice.pick_and_place import demo, environment, goal_library, navigation, scheduler
+from hoi_tutorial.choice.planner import baselines as choice_baselines, fields, interactions as choice_interactions, intp
 
 ACTIONS = ("sit", "lift")
 
@@ -39,16 +40,16 @@ FACTORIES = [
     (motion_data, "motion_data_config", motion_data.MotionDataConfig, False),
     (motionnet, "motionnet_config", motionnet.MotionNetConfig, False),
     (fields, "field_config", fields.FieldConfig, False),
-    (choice_data, "planner_data_config", choice_data.PlannerDataConfig, False),
-    (planner, "planner_config", planner.PlannerConfig, False),
+    (choice_interactions, "planner_data_config", choice_interactions.PlannerDataConfig, False),
+    (intp, "planner_config", intp.PlannerConfig, False),
     (choice_baselines, "diffusion_policy_config", choice_baselines.DiffusionPolicyConfig, False),
     (phase, "phase_config", phase.PhaseConfig, False),
     (environment, "environment_config", environment.EnvironmentConfig, False),
-    (environment, "library_config", environment.LibraryConfig, False),
+    (goal_library, "library_config", goal_library.LibraryConfig, False),
     (scheduler, "scheduler_config", scheduler.SchedulerConfig, False),
     (navigation, "navigation_config", navigation.NavigationConfig, False),
-    (controller, "controller_config", controller.ControllerConfig, False),
-    (pick_and_place, "pick_and_place_config", pick_and_place.PickAndPlaceConfig, False),
+    (network, "controller_config", network.ControllerConfig, False),
+    (demo, "pick_and_place_config", demo.PickAndPlaceConfig, False),
 ]
 
 CASES = [(module, name, cls, scale, action)

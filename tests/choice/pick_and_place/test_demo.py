@@ -1,0 +1,272 @@
+"""CHOICE's pick-and-place demo (§6, Fig. 6; ``choice.pick_and_place.demo``): the toy kitchen's run opens the door,
+takes the bottle out and puts it on the table without collision for seeds 0, 1, 2; the schedule is co-temporal;
+the collision measure flags a door kept shut and a bottle moved through the cabinet; the arms' measures tell
+crossed and touching arms; determinism; errors."""
+import numpy as np
+import pytest
+
+from hoi_tutorial.choice.pick_and_place import checks as pp_checks, demo as pp, scheduler
+from hoi_tutorial.choice.pick_and_place.stances import stance_pose
+from hoi_tutorial.world.mocap.body_plan import PlanBody, check_betas, hand_on_point, plan_to_motion
+from hoi_tutorial.world.mocap.motion_math import forward_xyz, right_xyz
+from hoi_tutorial.world.mocap.standing import standing_plan
+
+
+@pytest.fixture(scope="module")
+def run0(module_cache, one_cpu_thread):
+    """Seed 0, built once (the environment autoencoder trains cold into the module's cache)."""
+    return pp.pick_and_place(0)
+
+
+def _assert_completed(result):
+    checks = result.checks
+    assert checks["door_opened"] and checks["door_peak"] >= checks["door_asked"] > 0
+    assert checks["bottle_out"] and checks["placed"]
+    assert not checks["collision"]
+    assert checks["body_clearance"] >= 0 and checks["body_in_bottle"] >= 0
+    assert checks["bottle_penetration"] <= result.config.tolerance
+    assert checks["min_clearance"] >= 0
+    assert checks["door_hand_error"] < 0.02  # the door moves with the hand on its handle
+    # the door held on its hand's side: the arms neither cross nor touch
+    assert not checks["arms_crossed"] and not checks["self_contact"] and checks["door_hand_across"] < 0.1
+
+
+def test_seed_0_opens_takes_out_and_places_without_collision(run0):
+    _assert_completed(run0)
+    T = len(run0.motion)
+    assert run0.motion.local_rotations.shape == (T, 22, 3, 3) and run0.motion.root_position.shape == (T, 3)
+    assert run0.door_angle.shape == (T,) and run0.bottle_pose.shape == (T, 4, 4)
+    # the phases tile the motion in Fig. 6's order
+    names = [n for n, _, _ in run0.phases]
+    assert names == ["walk to cabinet", "settle at cabinet", "reach handle", "grasp handle", "open door", "lean in",
+                     "reach bottle", "grasp bottle", "take out", "release door", "stand up", "walk to table",
+                     "settle at table", "place", "release bottle"]
+    assert run0.phases[0][1] == 0 and run0.phases[-1][2] == T
+    assert all(a[2] == b[1] for a, b in zip(run0.phases[:-1], run0.phases[1:]))
+    # the door is closed until it is opened, and stays open; the bottle rests until grasped
+    start, stop = run0.phase("open door")
+    assert np.all(run0.door_angle[:start] == 0) and np.all(np.diff(run0.door_angle[start:stop]) >= -1e-12)
+    np.testing.assert_allclose(run0.door_angle[stop:], run0.checks["door_asked"])
+    grasp = run0.phase("grasp bottle")[0]
+    assert np.allclose(run0.bottle_pose[:grasp + 1], run0.kitchen.items[0].pose)
+    # the bottle ends where the scheduler's place keyframe put the grasp point
+    place = [k for k in run0.plan.keyframes if k.action == "place"][0]
+    np.testing.assert_allclose(place.position, run0.place_at)
+    table_top = run0.kitchen.furniture_of("table").to_world(np.r_[0.0, 0.0, run0.kitchen.furniture_of("table")
+                                                                  .support_surfaces[0, 0]])[2]
+    assert run0.bottle_pose[-1, 2, 3] == pytest.approx(table_top, abs=run0.config.tolerance)
+    # both walks arrived (a miss would be recorded, with the starts tried)
+    assert all(w["reached"] for w in run0.walks) and run0.walks[0]["starts_tried"]
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_seeds_1_and_2_complete_too(run0, seed):
+    _assert_completed(pp.pick_and_place(seed))
+
+
+def test_the_schedule_is_co_temporal_with_one_hand_on_each_object(run0):
+    plan = run0.plan
+    assert plan.chosen.schedule.cotemporal and len(plan.candidates) == 4  # both hands free: four schedules
+    assert run0.eq24.cost == min(c.cost for c in plan.candidates if c.feasible)  # Eq. 24's own choice
+    # played: the cheapest co-temporal schedule that holds the door on its hand's side
+    assert scheduler.held_on_its_side(plan.task, plan.chosen.schedule.auxiliary_hand)
+    assert plan.chosen.cost == min(c.cost for c in plan.candidates if c.feasible and c.schedule.cotemporal
+                                   and scheduler.held_on_its_side(plan.task, c.schedule.auxiliary_hand))
+    door_hand, bottle_hand = run0.hands["door"], run0.hands["bottle"]
+    assert door_hand != bottle_hand
+    assert door_hand == plan.chosen.schedule.auxiliary_hand and bottle_hand == plan.chosen.schedule.target_hand
+    steps = [(k.action, k.hand, k.object) for k in plan.keyframes]
+    assert steps[0][0] == "walk"
+    assert {h for a, h, o in steps if o == "cabinet door" and h} == {door_hand}
+    assert {h for a, h, o in steps if o.startswith("bottle") and h} == {bottle_hand}
+    # the door is held open while the other hand takes the bottle out (Fig. 6)
+    assert steps.index(("open", door_hand, "cabinet door")) < steps.index(("carry", bottle_hand, "bottle 0")) \
+        < steps.index(("release", door_hand, "cabinet door"))
+
+
+def test_the_collision_measure_flags_a_door_kept_shut_and_a_bottle_through_the_wall(run0):
+    T = len(run0.motion)
+    shut = pp.evaluate(run0, door_angle=np.zeros(T))
+    assert shut["collision"] and not shut["door_opened"]
+    assert shut["bottle_penetration"] > run0.config.tolerance  # the bottle goes through the closed door
+    # the bottle taken out through the cabinet's side wall instead of its front: moved sideways onto the wall
+    cabinet = run0.kitchen.furniture_of("cabinet")
+    _, x0, x1 = cabinet.support_surfaces[0, :3]
+    pose = run0.bottle_pose.copy()
+    start, stop = run0.phase("take out")
+    pose[start:stop, :3, 3] += (0.5 * (x1 - x0) + 0.5 * cabinet.params["wall_thickness"]) * cabinet.rotation[:, 0]
+    moved = pp.evaluate(run0, bottle_pose=pose)
+    assert moved["collision"] and moved["bottle_penetration"] > 0.01
+    # unchanged inputs give the run's own checks
+    fresh = pp.evaluate(run0)
+    assert all(run0.checks[k] == v for k, v in fresh.items())
+
+
+def test_the_same_seed_gives_the_same_motion_and_the_cache_gives_it_back(run0):
+    """The cached run is computed again (determinism), stored, and loaded back whole: the motion, the door and
+    the bottle, the phases, the walks, the checks, and the schedule played and chosen with their keyframes."""
+    built = pp.cached_pick_and_place(0)  # not cached yet in this module's cache: runs the demo again
+    loaded = pp.cached_pick_and_place(0)
+    for again in (built, loaded):
+        assert np.array_equal(again.motion.local_rotations.numpy(), run0.motion.local_rotations.numpy())
+        assert np.array_equal(again.motion.root_position.numpy(), run0.motion.root_position.numpy())
+        assert np.array_equal(again.door_angle, run0.door_angle) and np.array_equal(again.bottle_pose, run0.bottle_pose)
+        assert again.phases == run0.phases and again.hands == run0.hands and again.walks == run0.walks
+        assert np.array_equal(again.place_at, run0.place_at)
+        assert set(again.checks) == set(run0.checks)
+        assert all(np.array_equal(np.asarray(again.checks[k]), np.asarray(v)) for k, v in run0.checks.items())
+        assert again.plan.chosen.schedule == run0.plan.chosen.schedule and again.eq24.schedule == run0.eq24.schedule
+        assert [c.cost for c in again.plan.candidates] == [c.cost for c in run0.plan.candidates]
+        assert [(k.action, k.hand, k.object) for k in again.plan.keyframes] == \
+            [(k.action, k.hand, k.object) for k in run0.plan.keyframes]
+        assert all(np.array_equal(a.position, b.position) for a, b in zip(again.plan.keyframes, run0.plan.keyframes))
+        assert np.array_equal(again.kitchen.items[0].pose, run0.kitchen.items[0].pose)
+    with pytest.raises(ValueError, match="seed: expected a non-negative int"):
+        pp.cached_pick_and_place(-1)
+    with pytest.raises(ValueError, match="config: expected a PickAndPlaceConfig"):
+        pp.cached_pick_and_place(0, config={"hands": "eq24"})
+
+
+def test_the_controller_at_the_cabinet_gets_the_demos_handle_keyframe_and_both_starts(run0):
+    """The goal is the demo's door hand on the handle; the standing start is where the demo's reach begins; the
+    two starts rolled out in one batch give what each gives alone (untrained weights: the wiring, not the skill)."""
+    import torch
+
+    from hoi_tutorial.choice.controller import network, phase, runtime
+    from hoi_tutorial.world.skeleton import joint_index
+
+    config = network.controller_config("toy")
+    torch.manual_seed(0)
+    model = network.build_controller(config, phase.build_phase_autoencoder(phase.phase_config(config.phase_scale)))
+    model.eval()
+    out = pp.controller_at_cabinet(run0, model, frames=8, lead=0.5)
+    g = run0.phase("grasp handle")[0]
+    door_wrist = joint_index(f"{run0.hands['door']}_wrist")
+    assert abs(out["wrist_height"] - float(run0.motion.joints[g, door_wrist, 2])) < 1e-5
+    assert abs(out["pelvis_height"] - float(run0.motion.joints[g, joint_index("pelvis"), 2])) < 1e-5
+    assert abs(out["wrist_height"] - run0.plan.task.auxiliary.contact[2]) < 0.02  # the keyframe holds the handle
+    standing, walking = out["starts"]["standing"], out["starts"]["walking"]
+    assert standing["frame"] == run0.phase("reach handle")[0]
+    assert walking["frame"] == run0.phase("walk to cabinet")[1] - 15
+    handle = run0.motion.joints[g, door_wrist].numpy()
+    assert abs(standing["distance"] - float(np.linalg.norm(run0.motion.joints[standing["frame"], door_wrist].numpy()
+                                                           - handle))) < 1e-5
+    # the standing start alone, rolled out with the Kalman goal phase, gives the batch's numbers
+    import dataclasses
+
+    side = ("left", "right").index(run0.hands["door"])
+    goal = runtime.clip_goal(model, [dataclasses.replace(run0.motion, meta={"anchor_frame": g,
+                                                                                "hand": run0.hands["door"]})])
+    f = standing["frame"]
+    alone = runtime.rollout(model, runtime.initial_state(model, [run0.motion.slice(0, f + 1)], frame=f), goal, 8,
+                               "kalman")
+    closest = float(np.min(np.linalg.norm(alone.wrist[:, 0, side].numpy() - handle, axis=-1)))
+    assert abs(closest - standing["closest"]["kalman"]) < 1e-4
+    for bad, match in (({"frames": 0}, "frames: expected a positive int"), ({"lead": 0.0}, "lead: expected a positive")):
+        with pytest.raises(ValueError, match=match):
+            pp.controller_at_cabinet(run0, model, **bad)
+    with pytest.raises(ValueError, match="run: expected a PickAndPlace"):
+        pp.controller_at_cabinet("run", model)
+    with pytest.raises(ValueError, match="model: expected a network.ControllerNet"):
+        pp.controller_at_cabinet(run0, torch.nn.Linear(2, 2))
+
+
+def test_the_kitchen_has_a_bottle_inside_the_closed_cabinet():
+    kitchen = pp.cabinet_kitchen(0)
+    cabinet, bottle = kitchen.furniture_of("cabinet"), kitchen.items[0]
+    assert kitchen.holder_of(0) is cabinet and cabinet.params["door_angle"] == 0.0 and bottle.category == "bottle"
+    lo, hi = cabinet.bounds
+    assert np.all(bottle.bounds[0] >= lo) and np.all(bottle.bounds[1] <= hi)
+    assert all(kitchen.holder_of(i) is not cabinet for i in range(1, len(kitchen.items)))
+    assert np.array_equal(pp.cabinet_kitchen(0).items[0].pose, bottle.pose)
+
+
+def test_errors_name_what_was_expected(run0):
+    for bad in (-1, True, 1.5, "0"):
+        with pytest.raises(ValueError, match="seed: expected a non-negative int"):
+            pp.pick_and_place(bad)
+        with pytest.raises(ValueError, match="seed: expected a non-negative int"):
+            pp.cabinet_kitchen(bad)
+    with pytest.raises(ValueError, match="config: expected a PickAndPlaceConfig"):
+        pp.pick_and_place(0, config={"n_starts": 2})
+    with pytest.raises(ValueError, match="n_starts: expected a positive int"):
+        pp.pick_and_place_config(n_starts=0)
+    with pytest.raises(ValueError, match="durations: expected 9 positive numbers"):
+        pp.pick_and_place_config(durations=(1.0, 2.0))
+    with pytest.raises(ValueError, match="style: expected 'squat' or 'stoop'"):
+        pp.pick_and_place_config(style="kneel")
+    with pytest.raises(ValueError, match="hands: expected 'eq24' or 'uncrossed'"):
+        pp.pick_and_place_config(hands="left")
+    with pytest.raises(ValueError, match="seed: expected a non-negative int"):
+        pp.cabinet_schedule(-2)
+    with pytest.raises(TypeError):
+        pp.pick_and_place_config(speed=2.0)
+    T = len(run0.motion)
+    with pytest.raises(ValueError, match=rf"door_angle: expected shape \({T},\)"):
+        pp.evaluate(run0, door_angle=np.zeros(T + 1))
+    with pytest.raises(ValueError, match=rf"bottle_pose: expected shape \({T}, 4, 4\)"):
+        pp.evaluate(run0, bottle_pose=np.zeros((T, 3, 4)))
+    with pytest.raises(ValueError, match="name: expected one of"):
+        run0.phase("dance")
+
+
+# ----------------------------------------------------------------------------- the arms against each other
+
+
+def _reaching(wrist_points):
+    """Two frames standing: arms hanging, then each wrist (left, right) driven by IK to ``(lateral, ahead)``
+    metres from a point 25 cm above the pelvis (lateral: toward the body's right)."""
+    body = PlanBody(check_betas(None))
+    heading = 0.3
+    root, ankles, feet = stance_pose(body, (1.0, 2.0), heading)
+    plan = standing_plan(2, root, heading, ankles, feet, "idle")
+    chest = root + np.array([0.0, 0.0, 0.25])
+    for side, (lateral, ahead) in enumerate(wrist_points):
+        point = chest + lateral * right_xyz(heading) + ahead * forward_xyz(heading)
+        hand_on_point(plan, slice(1, 2), side, point[None], np.ones(1))
+    return plan_to_motion(plan, body)
+
+
+def test_arm_measures_tell_hanging_reaching_crossed_and_touching_arms():
+    hanging_and_apart = pp_checks.arm_measures(_reaching([(-0.15, 0.3), (0.15, 0.3)]))
+    # hanging (frame 0) and reaching ahead on their own sides (frame 1): each wrist on its side, arms apart
+    assert np.all(hanging_and_apart["left_across"] < -0.1) and np.all(hanging_and_apart["right_across"] < -0.1)
+    assert np.all(hanging_and_apart["crossed"] < -0.2) and np.all(hanging_and_apart["arm_clearance"] > 0.1)
+    # the right wrist reaches past the midline, the left stays farther left: across, but not crossed
+    one_across = pp_checks.arm_measures(_reaching([(-0.2, 0.3), (-0.1, 0.3)]))
+    assert one_across["right_across"][1] > 0.05 and one_across["left_across"][1] < 0
+    assert one_across["crossed"][1] < 0 and one_across["arm_clearance"][1] > 0
+    # the wrists swap sides: crossed by about their lateral gap, and the forearms touch
+    swapped = pp_checks.arm_measures(_reaching([(0.25, 0.35), (-0.25, 0.35)]))
+    assert swapped["left_across"][1] > 0.1 and swapped["right_across"][1] > 0.1
+    assert swapped["crossed"][1] == pytest.approx(swapped["left_across"][1] + swapped["right_across"][1])
+    assert swapped["crossed"][1] > 0.2 and swapped["arm_clearance"][1] < 0
+
+
+def test_eq_24s_own_hands_cross_the_arms_where_the_scheduler_says_the_door_is_held_across(run0):
+    # seed 0: Eq. 24 gives the door to the hand that ends up holding it across the body; played as it is
+    eq24 = pp.pick_and_place(0, pp.pick_and_place_config(hands="eq24"))
+    assert eq24.plan.chosen.schedule == eq24.eq24.schedule == run0.eq24.schedule
+    assert eq24.hands["door"] != run0.hands["door"]
+    for run in (eq24, run0):  # held_on_its_side predicts from the opened handle and the bottle; the checks measure
+        assert scheduler.held_on_its_side(run.plan.task, run.hands["door"]) == (run.checks["door_hand_across"] < 0.1)
+        assert run.checks["self_contact"] == (run.checks["arm_clearance"] < 0)
+    assert eq24.checks["arms_crossed"] and eq24.checks["door_hand_across"] > 0.2
+    assert not run0.checks["arms_crossed"]
+    assert eq24.checks["door_opened"] and eq24.checks["bottle_out"] and eq24.checks["placed"]
+
+
+def test_the_schedule_survey_agrees_with_the_schedules_it_summarises(run0):
+    survey = pp.schedule_survey(3)
+    assert [r["kitchen"] for r in survey] == [0, 1, 2]
+    for r in survey:
+        plan = pp.cabinet_schedule(r["kitchen"])
+        assert r["eq24"] == plan.chosen.schedule.name and r["cotemporal"] == plan.chosen.schedule.cotemporal
+        assert r["costs"] == {c.schedule.name: c.cost for c in plan.candidates}
+        crossing = {c.schedule.name for c in plan.candidates if c.schedule.cotemporal
+                    and not scheduler.held_on_its_side(plan.task, c.schedule.auxiliary_hand)}
+        assert r["across"] == (r["eq24"] in crossing) and r["uncrossed"] not in crossing
+        assert r["costs"][r["uncrossed"]] == min(v for k, v in r["costs"].items() if k not in crossing)
+    assert survey[0]["eq24"] == run0.eq24.schedule.name
+    with pytest.raises(ValueError, match="n_kitchens: expected a positive int"):
+        pp.schedule_survey(0)
