@@ -12,10 +12,11 @@ Modules, in the order of the paper:
 - ``demo``: the kitchen demo that joins navigation, the scheduler and Fig. 6's keyframes — walk to the
   cabinet, open it with one hand, take the bottle with the other, put it on the table (§6, §8.3); its
   stance search in ``stances``, its motion pieces (walks, the plans at the cabinet and the table) in
-  ``motion_pieces`` and its collision checks in ``checks``. The body there is posed by IK and the toy
+  ``motion_pieces``, its collision checks in ``checks`` and the small types they pass each other (the
+  configuration, the setting, stances and plans) in ``demo_types``. The body there is posed by IK and the toy
   world's body planner, not yet by the controller.
 """
-from . import checks, demo, environment, goal_library, locomotion, motion_pieces, navigation, scheduler, stances
+from . import checks, demo, demo_types, environment, goal_library, locomotion, motion_pieces, navigation, scheduler, stances
 
-__all__ = ["environment", "goal_library", "navigation", "locomotion", "scheduler", "demo", "stances", "motion_pieces",
-           "checks"]
+__all__ = ["environment", "goal_library", "navigation", "locomotion", "scheduler", "demo", "demo_types", "stances",
+           "motion_pieces", "checks"]

@@ -15,13 +15,12 @@ the bottle's grasp point) may touch the cabinet (resp. the bottle). The bottle c
 (:func:`arm_measures`): the two arms' sample points (shoulder to wrist) against each other with the same radius,
 and how far each wrist passes the body's midline (between the shoulders) to the other side and whether the wrists'
 left-right order swaps (crossed arms); the torso against the arms is not checked (the upper arms hang within a limb
-radius of it). The constants are fields of ``demo.PickAndPlaceConfig``.
+radius of it). The constants are fields of ``demo_types.PickAndPlaceConfig``.
 """
 from __future__ import annotations
 
 import functools
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,10 +31,8 @@ from ...world.mocap.motion_math import rot_z
 from ...world.motion import Motion
 from ...world.scenes import Kitchen
 from ...world.skeleton import JOINT_NAMES, NUM_JOINTS, PARENTS, joint_index
+from .demo_types import BodyDistances, PickAndPlace, PickAndPlaceConfig
 from .environment import room_sdf
-
-if TYPE_CHECKING:  # for the annotation only: the demo imports this module, not the reverse
-    from .demo import PickAndPlace
 
 __all__ = [
     "handle_at",
@@ -146,12 +143,13 @@ def _scene_sdf(kitchen: Kitchen, points: np.ndarray, door_angle: np.ndarray, ski
     return d
 
 
-def body_distances(kitchen, motion, door, pose, hands, contact, config) -> tuple:
-    """``(scene (T, P), bottle (T, P))``: distances of the body sample points to the scene (the cabinet at each
-    frame's ``door`` angle; the floor except for shins and feet) and to the bottle at its poses ``pose``
-    (T, 4, 4), the exempt contacts at infinity: points within ``contact_radius`` of the door hand's wrist while
-    that wrist is on the handle (cabinet), and of the bottle hand's wrist while it is on the bottle's grasp point
-    ``contact`` (3,) (given as it stands at first) (bottle)."""
+def body_distances(kitchen: Kitchen, motion: Motion, door, pose, *, hands: dict, contact,
+                   config: PickAndPlaceConfig) -> BodyDistances:
+    """``(scene (T, P), bottle (T, P))`` (:class:`~.demo_types.BodyDistances`): distances of the body sample points to
+    the scene (the cabinet at each frame's ``door`` angle; the floor except for shins and feet) and to the bottle at
+    its poses ``pose`` (T, 4, 4), the exempt contacts at infinity: points within ``contact_radius`` of the door
+    hand's wrist while that wrist is on the handle (cabinet), and of the bottle hand's wrist while it is on the
+    bottle's grasp point ``contact`` (3,) (given as it stands at first) (bottle)."""
     bottle = kitchen.items[0]
     cabinet = kitchen.furniture_of("cabinet")
     points, lower = body_points(motion, config.bone_samples)
@@ -170,7 +168,7 @@ def body_distances(kitchen, motion, door, pose, hands, contact, config) -> tuple
     d = np.where(lower[None], d, np.minimum(d, points[..., 2]))
     local_points = np.einsum("tij,tpj->tpi", np.swapaxes(pose[:, :3, :3], -1, -2), points - pose[:, None, :3, 3])
     db = bottle.canonical_sdf(local_points.reshape(-1, 3)).reshape(T, P)
-    return d, np.where(skip_bottle, np.inf, db)
+    return BodyDistances(d, np.where(skip_bottle, np.inf, db))
 
 
 def evaluate(result: PickAndPlace, *, door_angle=None, bottle_pose=None) -> dict:
@@ -212,7 +210,8 @@ def evaluate(result: PickAndPlace, *, door_angle=None, bottle_pose=None) -> dict
         raise ValueError(f"bottle_pose: expected shape ({T}, 4, 4), got {pose.shape}")
     bottle = kitchen.items[0]
     cabinet = kitchen.furniture_of("cabinet")
-    d, db = body_distances(kitchen, result.motion, door, pose, result.hands, result.plan.task.target.contact, config)
+    d, db = body_distances(kitchen, result.motion, door, pose, hands=result.hands, contact=result.plan.task.target.contact,
+                           config=config)
     body_clearance = float(np.min(d)) - config.body_radius
     body_in_bottle = float(np.min(db)) - config.body_radius
     # the bottle against the scene

@@ -77,7 +77,6 @@ import dataclasses
 import functools
 import sys
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 import torch
@@ -101,17 +100,18 @@ from .goal_library import LibraryConfig
 from .motion_pieces import (attach_bottle, exit_point, hold_arm, last_pose, pelvis_yaw, plan_at_cabinet,
                                     plan_at_table, settle, walk)
 from .navigation import NavigationConfig
+from .demo_types import DemoSetting, PickAndPlace, PickAndPlaceConfig, Stance
 from .stances import item_radius, open_stance, table_stance, take_stance
 from .scheduler import SchedulerConfig
 
 __all__ = [
-    "PickAndPlaceConfig",
+    "PickAndPlaceConfig",  # from demo_types, re-exported
     "PICK_AND_PLACE_SCALES",
     "pick_and_place_config",
     "cabinet_kitchen",
     "cabinet_schedule",
     "schedule_survey",
-    "PickAndPlace",
+    "PickAndPlace",  # from demo_types, re-exported
     "pick_and_place",
     "cached_pick_and_place",
     "controller_at_cabinet",
@@ -120,82 +120,7 @@ __all__ = [
 ]
 
 
-# ----------------------------------------------------------------------------- configuration
-
-
-@dataclass(frozen=True)
-class PickAndPlaceConfig:
-    """The demo's constants (defaults: the ``toy`` preset).
-
-    Attributes:
-        n_starts: start positions tried, in order, until a walk reaches the stance (ours).
-        durations: seconds of each timed phase, ``(reach, grasp, open, lean_in, take_out, release, stand_up,
-            place, let_go)`` (ours).
-        hold: where the carrying wrist is held while walking, in the pelvis's heading frame: (sideways
-            towards the carrying hand, forward, up from the pelvis), metres (ours).
-        exit_clearance: after taking the bottle out the body steps back to the nearest floor cell this far from
-            every footprint (the open door's included), where the walk to the table starts, metres (ours).
-        table_inset: the bottle's centre this far in from the table edge, metres (ours).
-        table_gap: the stance's pelvis this far out from the table edge, metres (ours).
-        stance_margin: a stance is taken when the body's sample points keep ``body_radius`` plus this from the
-            door (at A, over the first half of its swing; at B, opened; on the way, swinging), metres (ours).
-        body_radius: radius of the body's sample points, metres (ours; a thin limb).
-        bone_samples: points along each bone between its two joints (ours).
-        contact_radius: points this near a wrist holding the handle or the bottle (the hand and the wrist end of
-            the forearm) may touch what it holds, metres (ours).
-        tolerance: penetration of the bottle allowed (it rests on boards), metres; also the placing
-            tolerance (ours).
-        style: the bend, ``"squat"`` (knees) or ``"stoop"`` (hips) (``world.mocap.standing``).
-        hands: which schedule the demo plays: ``"eq24"``, the one Eq. 24 chooses (as the paper; it may hold the
-            door across the body), or ``"uncrossed"``, the cheapest feasible co-temporal schedule whose door hand
-            holds the opened door on its own side (``scheduler.cheapest_uncrossed``; ours, see the module's
-            docstring).
-        navigation, environment, library, scheduler: the configurations of the pieces used.
-    """
-
-    n_starts: int = 6
-    durations: tuple = (0.9, 0.3, 1.5, 0.9, 1.0, 0.5, 0.9, 1.0, 0.8)
-    hold: tuple = (0.16, 0.32, 0.22)
-    exit_clearance: float = 0.45
-    table_inset: float = 0.16
-    table_gap: float = 0.42
-    stance_margin: float = 0.01
-    body_radius: float = 0.03
-    bone_samples: int = 4
-    contact_radius: float = 0.12
-    tolerance: float = 0.005
-    style: str = "squat"
-    hands: str = "uncrossed"
-    navigation: NavigationConfig = NavigationConfig()
-    environment: EnvironmentConfig = EnvironmentConfig()
-    library: LibraryConfig = LibraryConfig()
-    scheduler: SchedulerConfig = SchedulerConfig()
-
-    def __post_init__(self):
-        if isinstance(self.n_starts, bool) or not isinstance(self.n_starts, int) or self.n_starts < 1:
-            raise ValueError(f"n_starts: expected a positive int, got {self.n_starts!r}")
-        if isinstance(self.bone_samples, bool) or not isinstance(self.bone_samples, int) or self.bone_samples < 0:
-            raise ValueError(f"bone_samples: expected a non-negative int, got {self.bone_samples!r}")
-        durations = tuple(self.durations)
-        if len(durations) != 9 or not all(isinstance(d, (int, float)) and d > 0 for d in durations):
-            raise ValueError("durations: expected 9 positive numbers of seconds (reach, grasp, open, lean_in, "
-                             f"take_out, release, stand_up, place, let_go), got {self.durations!r}")
-        object.__setattr__(self, "durations", tuple(float(d) for d in durations))
-        hold = tuple(self.hold)
-        if len(hold) != 3 or not all(isinstance(h, (int, float)) for h in hold):
-            raise ValueError(f"hold: expected 3 numbers of metres (sideways, forward, up), got {self.hold!r}")
-        object.__setattr__(self, "hold", tuple(float(h) for h in hold))
-        for name in ("table_inset", "table_gap", "stance_margin", "contact_radius", "tolerance", "exit_clearance"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
-                raise ValueError(f"{name}: expected a positive number of metres, got {value!r}")
-        if isinstance(self.body_radius, bool) or not isinstance(self.body_radius, (int, float)) \
-                or not self.body_radius >= 0:
-            raise ValueError(f"body_radius: expected a non-negative number of metres, got {self.body_radius!r}")
-        if self.style not in ("squat", "stoop"):
-            raise ValueError(f"style: expected 'squat' or 'stoop', got {self.style!r}")
-        if self.hands not in ("eq24", "uncrossed"):
-            raise ValueError(f"hands: expected 'eq24' or 'uncrossed', got {self.hands!r}")
+# ----------------------------------------------------------------------------- configuration (the class is in demo_types)
 
 
 PICK_AND_PLACE_SCALES: dict = {}  # nothing of the demo's own scales; its pieces follow their presets
@@ -280,57 +205,6 @@ def _database(config: NavigationConfig):
     return locomotion.motion_database(config)
 
 
-# ----------------------------------------------------------------------------- result
-
-
-@dataclass(eq=False)
-class PickAndPlace:
-    """One run of the demo.
-
-    Attributes:
-        seed: the kitchen's seed.
-        kitchen: the scene as it starts (:func:`cabinet_kitchen`; the bottle is item 0).
-        plan: the scheduler's ``TaskPlan`` (§6.3) for the schedule played (``plan.chosen``; ``config.hands``).
-        eq24: the schedule Eq. 24 chooses (``scheduler.Candidate``), the same as ``plan.chosen`` unless the
-            ``"uncrossed"`` rule replaced it.
-        motion: the whole ``Motion`` (30 fps, mean body): local rotations (T, 22, 3, 3), root (T, 3) metres.
-        door_angle: (T,) radians, the cabinet door at each frame.
-        bottle_pose: (T, 4, 4) the bottle's world pose at each frame.
-        phases: ``(name, start, stop)`` frame ranges, in order, covering ``[0, T)``.
-        hands: ``{"door": hand, "bottle": hand}`` (``"left"`` / ``"right"``).
-        place_at: (3,) where the bottle's grasp point goes down (the scheduler's ``place_at``), metres.
-        walks: per walk (to the cabinet, to the table): ``goal`` (2,), ``reached``, ``goal_error`` (metres),
-            ``stopped``, ``frames``; the first also ``starts_tried`` (each start with its goal error or error),
-            ``start_index``, ``stance`` (how stance A was found) and ``take_stances_tried`` (each stance B tried
-            with its clearance and door-hand error, metres).
-        checks: :func:`evaluate`'s dictionary.
-        seconds: wall time of the run.
-        config: the configuration it ran with.
-    """
-
-    seed: int
-    kitchen: Kitchen
-    plan: scheduler.TaskPlan
-    eq24: scheduler.Candidate
-    motion: Motion
-    door_angle: np.ndarray
-    bottle_pose: np.ndarray
-    phases: list
-    hands: dict
-    place_at: np.ndarray
-    walks: list
-    checks: dict = field(default_factory=dict)
-    seconds: float = 0.0
-    config: PickAndPlaceConfig = PickAndPlaceConfig()
-
-    def phase(self, name: str) -> tuple:
-        """``(start, stop)`` of the first phase called ``name``."""
-        for n, a, b in self.phases:
-            if n == name:
-                return a, b
-        raise ValueError(f"name: expected one of {[n for n, _, _ in self.phases]}, got {name!r}")
-
-
 # ----------------------------------------------------------------------------- the demo
 
 
@@ -412,16 +286,17 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
     if hands["door"] == hands["bottle"]:
         # one hand does both (sequential): the demo is the co-temporal case of the paper; say so
         raise ValueError(f"schedule: expected a co-temporal schedule, Eq. 24 chose {chosen.schedule.name}")
-    d, g = SIDES.index(hands["door"]), SIDES.index(hands["bottle"])
+    setting = DemoSetting(body, task, hands, config)
+    g = setting.bottle_side
     walk_goal = scheduler.keyframes(task, chosen)[0].position[:2]  # the first matched keyframe's pelvis
-    stance_xy, heading, bend1, stance_source = open_stance(body, cabinet, task, walk_goal, d, grid, rng, config)
-    takes = take_stance(body, cabinet, task, stance_xy, heading, hands, rng, config)
+    stance_xy, heading, bend1, stance_source = open_stance(setting, cabinet, walk_goal, grid, rng)
+    takes = take_stance(setting, cabinet, Stance(stance_xy, heading), rng)
 
     # §6.2: the walk to the stance, from the starts in turn until one arrives
     walk1, tried = None, []
     for k, start in enumerate(starts):
         try:
-            nav = walk(grid, database, start, stance_xy, front[:2], None, config, kitchen)
+            nav = walk(grid, database, start, stance_xy, front[:2], None, kitchen=kitchen, config=config)
         except ValueError as error:
             tried.append({"start": start.tolist(), "error": str(error)})
             continue
@@ -443,20 +318,21 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
     best, take_tried = None, []
     for i, (xy_b, psi_b, (bend2, bend3)) in enumerate(takes):
         exit_b = exit_point(open_kitchen, grid2, xy_b, config.exit_clearance)
-        built = plan_at_cabinet(body, (stance_xy, heading), (xy_b, psi_b), exit_b, (bend1, bend2, bend3), task, hands,
-                              np.random.default_rng([seed, i]), config)
-        motion_b = plan_to_motion(built[0], body)
+        built = plan_at_cabinet(setting, Stance(stance_xy, heading), Stance(xy_b, psi_b), exit_b, (bend1, bend2, bend3),
+                                np.random.default_rng([seed, i]))
+        motion_b = plan_to_motion(built.plan, body)
         glob_b, joints_b = forward_kinematics(motion_b.local_rotations.double(), motion_b.root_position.double())
         yaws_b = np.unwrap(np.array([pelvis_yaw(r) for r in glob_b[:, 0].numpy()]))
-        pose_b = attach_bottle(bottle, joints_b[:, joint_index(f"{hands['bottle']}_wrist")].numpy(), yaws_b, built[3],
-                         len(motion_b) - 1)
-        d_b, db_b = body_distances(kitchen, motion_b, built[2], pose_b, hands, task.target.contact, config)
+        pose_b = attach_bottle(bottle, joints_b[:, joint_index(f"{hands['bottle']}_wrist")].numpy(), yaws_b,
+                               built.grasp_frame, len(motion_b) - 1)
+        d_b, db_b = body_distances(kitchen, motion_b, built.door, pose_b, hands=hands, contact=task.target.contact,
+                                   config=config)
         score = min(float(d_b.min()), float(db_b.min())) - config.body_radius
-        phase_starts = np.cumsum([0] + [n for _, n in built[1]])
-        names_b = [name for name, _ in built[1]]
+        phase_starts = np.cumsum([0] + [n for _, n in built.phases])
+        names_b = [name for name, _ in built.phases]
         held = slice(int(phase_starts[names_b.index("grasp handle")]), int(phase_starts[names_b.index("release door")]))
         wrist_b = joints_b[held, joint_index(f"{hands['door']}_wrist")].numpy()
-        error = float(np.max(np.linalg.norm(wrist_b - handle_at(cabinet, built[2][held]), axis=-1)))
+        error = float(np.max(np.linalg.norm(wrist_b - handle_at(cabinet, built.door[held]), axis=-1)))
         take_tried.append({"stance": np.asarray(xy_b).tolist(), "heading": psi_b, "clearance": score,
                            "door_hand_error": error})
         rank = min(score, 0.0) - max(error - _HOLD_TOLERANCE, 0.0)
@@ -468,8 +344,8 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
 
     # the table: its stance and the spot, then Fig. 6's keyframes with the place
     contact_offset = task.target.contact - bottle.translation
-    table_xy, table_heading, table_bend, spot, place_at = table_stance(
-        body, kitchen, grid2, take_xy, g, contact_offset, take_heading, rng, config)
+    table_xy, table_heading, table_bend, spot, place_at = table_stance(setting, kitchen, grid2,
+                                                                       Stance(take_xy, take_heading), contact_offset, rng)
     keyframes = scheduler.keyframes(task, chosen, place_at)
     plan = scheduler.TaskPlan(task, first.candidates, chosen, keyframes)
 
@@ -493,14 +369,15 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
     for name, n in cab_phases:
         phases.append((name, at, at + n))
         at += n
-    nav2 = walk(grid2, database, exit_xy, table_xy, -_forward2(table_heading), take_heading, config, open_kitchen)
+    nav2 = walk(grid2, database, exit_xy, table_xy, -_forward2(table_heading), take_heading, kitchen=open_kitchen,
+                config=config)
     carried = [nav2.motion.slice(1, len(nav2.motion))] if nav2.motion is not None and len(nav2.motion) > 1 else []
     last = last_pose(carried[0]) if carried else last_pose(cab_motion)
     settle2 = settle(last, (table_xy, table_heading), body)
     if carried:
         add("walk to table", hold_arm(carried[0], g, config.hold))
     add("settle at table", hold_arm(settle2, g, config.hold))
-    table_plan, table_phases = plan_at_table(body, (table_xy, table_heading), table_bend, spot, place_at, g, config)
+    table_plan, table_phases = plan_at_table(setting, Stance(table_xy, table_heading), table_bend, spot, place_at)
     offset = sum(len(p) for p in pieces)
     pieces.append(plan_to_motion(table_plan, body))
     at = offset

@@ -9,7 +9,7 @@ algorithm box in that module's docstring, as wrist paths, bends and steps for th
 - :func:`plan_at_table` (step 7): lower the bottle onto its spot, let go and draw the hand back.
 - :func:`attach_bottle`: the bottle's poses, rigid with the grasping wrist while held.
 
-The constants are fields of ``demo.PickAndPlaceConfig``; what is ours is listed in that module's
+The constants are fields of ``demo_types.PickAndPlaceConfig``; what is ours is listed in that module's
 docstring.
 """
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np
 import torch
 
 from ...world.kinematics import forward_kinematics, solve_limb_ik
-from ...world.mocap.body_plan import ELBOW_POLE, SIDES, PlanBody, hand_on_point
+from ...world.mocap.body_plan import ELBOW_POLE, SIDES, UP, PlanBody, hand_on_point
 from ...world.mocap.handles import handle_circle
 from ...world.mocap.motion_math import (forward_xyz, heading_of, min_jerk, right_xyz, rot_x, rot_z, slerp_rot,
                                        smoothstep)
@@ -27,18 +27,17 @@ from ...world.mocap.standing import bend_params, bend_plan, chest_frames, standi
 from ...world.motion import FPS, Motion, action_id
 from ...world.scenes import Kitchen
 from ...world.skeleton import joint_index
+from ..planner.baselines import minimum_jerk_plan
 from . import environment as env
 from . import locomotion
-from ..planner.baselines import minimum_jerk_plan
 from .checks import handle_at
+from .demo_types import CabinetPlan, DemoSetting, PickAndPlaceConfig, Stance, TablePlan
 from .stances import stance_bend, stance_pose
 
 __all__ = [
     "n_frames", "settle", "pelvis_yaw", "hold_point", "along_path", "limbs_clear", "walk", "last_pose", "hold_arm",
     "plan_at_cabinet", "exit_point", "plan_at_table", "attach_bottle",
 ]
-
-_UP = np.array([0.0, 0.0, 1.0])
 
 
 # ----------------------------------------------------------------------------- poses and blends
@@ -73,7 +72,7 @@ def hold_point(root, heading, side: int, hold) -> np.ndarray:
     heading = np.asarray(heading, dtype=np.float64)
     sideways = (-1.0, 1.0)[side] * hold[0]
     return (np.asarray(root) + sideways * right_xyz(heading) + hold[1] * forward_xyz(heading)
-            + hold[2] * _UP)
+            + hold[2] * UP)
 
 
 def along_path(points, s) -> np.ndarray:
@@ -89,7 +88,7 @@ def along_path(points, s) -> np.ndarray:
 # ----------------------------------------------------------------------------- the motion pieces
 
 
-def limbs_clear(kitchen: Kitchen, config):
+def limbs_clear(kitchen: Kitchen, config: PickAndPlaceConfig):
     """``clear(points (n, 10, 3)) -> bool`` for ``locomotion.follow_path``: the limb joints keep ``body_radius``
     from every object of ``kitchen`` and the walls."""
     walls = env.room_sdf(kitchen.size, floor=False)
@@ -101,7 +100,8 @@ def limbs_clear(kitchen: Kitchen, config):
     return clear
 
 
-def walk(grid, database, start, goal, goal_direction, start_heading, config, kitchen):
+def walk(grid, database, start, goal, goal_direction, start_heading, *, kitchen: Kitchen, config: PickAndPlaceConfig):
+    """§6.2's walk from ``start`` to ``goal`` (``locomotion.follow_path``), the limbs kept clear of ``kitchen``."""
     return locomotion.follow_path(grid, database, start, goal, goal_direction, start_heading=start_heading,
                                   config=config.navigation, clear=limbs_clear(kitchen, config))
 
@@ -123,19 +123,24 @@ def hold_arm(motion: Motion, side: int, hold) -> Motion:
     return Motion(local.float(), motion.root_position, betas=motion.betas)
 
 
-def plan_at_cabinet(body, stance_a, stance_b, exit_xy, bends, task, hands, rng, config):
+def plan_at_cabinet(setting: DemoSetting, stance_a: Stance, stance_b: Stance, exit_xy, bends: tuple,
+                    rng: np.random.Generator) -> CabinetPlan:
     """The plan at the cabinet: at stance A reach and grasp the handle; pull the door open, turning to face the
     handle, then step to stance B while leaning in (the wrist on the handle's circle, the feet stepping under
     the pelvis, ``step_feet``; the bend keeping the handle in reach, ``choose_bend`` every 4th frame); reach
     (the other hand), grasp and take out the bottle; let go of the door; stand up stepping back to
     ``exit_xy`` with the bottle brought out in front of the cabinet, then to the hold point.
 
-    Returns ``(plan, phases [(name, n)], door_angle (T,), grasp (first frame the bottle is held))``.
+    ``bends`` are B1 (at A, on the handle), B2 and B3 (at B, :class:`~.demo_types.TakeStance`).
+
+    Returns:
+        :class:`~.demo_types.CabinetPlan`.
     """
+    body, task, config = setting.body, setting.task, setting.config
     (xy_a, psi_a), (xy_b, psi_b) = stance_a, stance_b
     root_a, ankles, feet = stance_pose(body, xy_a, psi_a)
     cabinet = task.kitchen.furniture_of("cabinet")
-    d, g = SIDES.index(hands["door"]), SIDES.index(hands["bottle"])
+    d, g = setting.door_side, setting.bottle_side
     reach, grasp, opening, lean_in, take_out, release, stand_up = (n_frames(s) for s in config.durations[:7])
     names = [("reach handle", reach, "reach"), ("grasp handle", grasp, "grasp"), ("open door", opening, "open_door"),
              ("lean in", lean_in, "reach"), ("reach bottle", reach, "reach"), ("grasp bottle", grasp, "grasp"),
@@ -171,7 +176,7 @@ def plan_at_cabinet(body, stance_a, stance_b, exit_xy, bends, task, hands, rng, 
         stand_t = np.r_[pelvis_xy[t], root_a[2]]
         ank_t = stance_pose(body, pelvis_xy[t], psi[t])[1]
         key_bends.append(stance_bend(body, stand_t, psi[t], ank_t, {d: handle[t]},
-                               [cabinet.with_params(door_angle=float(door[t]))], config.style, rng)[:2])
+                               [cabinet.with_params(door_angle=float(door[t]))], style=config.style, rng=rng)[:2])
     xs = [moving.start] + keys + [moving.stop - 1]
     hs = [B1[0]] + [b[0] for b in key_bends] + [B2[0]]
     als = [B1[1]] + [b[1] for b in key_bends] + [B2[1]]
@@ -182,7 +187,7 @@ def plan_at_cabinet(body, stance_a, stance_b, exit_xy, bends, task, hands, rng, 
     ankle_t, foot_t, contact_t = step_feet(np.arange(T) / FPS, pelvis_xy, psi, ankles, feet, psi_a, rng)
     back, spine = bend_params(config.style, h, alpha)
     stand = np.concatenate([pelvis_xy, np.full((T, 1), root_a[2])], axis=1)
-    plan.root = stand - back[:, None] * forward_xyz(psi) - h[:, None] * _UP[None]
+    plan.root = stand - back[:, None] * forward_xyz(psi) - h[:, None] * UP[None]
     plan.pelvis = rot_z(psi) @ rot_x(-alpha)
     plan.spine[:, 0] = spine
     plan.neck[:, 0] = -0.45 * (alpha + spine)
@@ -196,7 +201,7 @@ def plan_at_cabinet(body, stance_a, stance_b, exit_xy, bends, task, hands, rng, 
     # the door hand: to the handle (from 10 cm in front, 4 cm above), on it while it swings, then let go
     handle0 = task.auxiliary.contact
     w = smoothstep(u["reach handle"] / 0.9)
-    hand_on_point(plan, span["reach handle"], d, handle0[None] + (1 - w)[:, None] * (0.10 * front + 0.04 * _UP),
+    hand_on_point(plan, span["reach handle"], d, handle0[None] + (1 - w)[:, None] * (0.10 * front + 0.04 * UP),
                   w)
     frames = slice(span["grasp handle"].start, span["release door"].start)
     hand_on_point(plan, frames, d, handle[frames], np.ones(frames.stop - frames.start))
@@ -209,11 +214,11 @@ def plan_at_cabinet(body, stance_a, stance_b, exit_xy, bends, task, hands, rng, 
     hand_on_point(plan, span["release door"], d, off, 1.0 - smoothstep((ug - 0.4) / 0.6))
     # the bottle hand: in along the reverse of the way out, grasp, out along the way, then up in front
     contact, carry = task.target.contact, task.carry
-    way = [contact, contact + config.scheduler.lift * _UP, carry]
+    way = [contact, contact + config.scheduler.lift * UP, carry]
     # until then the free hand waits beside the belly (a hanging arm would swing into the cabinet when bending)
     waiting = slice(span["grasp handle"].start, span["reach bottle"].start)
     sign_g = (-1.0, 1.0)[g]
-    rest = (plan.root + sign_g * 0.05 * right_xyz(psi) + 0.25 * forward_xyz(psi) + 0.15 * _UP)
+    rest = (plan.root + sign_g * 0.05 * right_xyz(psi) + 0.25 * forward_xyz(psi) + 0.15 * UP)
     n_wait = waiting.stop - waiting.start
     hand_on_point(plan, waiting, g, rest[waiting], smoothstep(np.arange(n_wait) / min(20, n_wait)))
     # in: to the way's outer end by a collision-penalised minimum-jerk path (planner.baselines), then straight in
@@ -230,7 +235,7 @@ def plan_at_cabinet(body, stance_a, stance_b, exit_xy, bends, task, hands, rng, 
     up = span["stand up"]
     moving_root = np.concatenate([pelvis_xy[up], np.full((stand_up, 1), root_a[2])], axis=1)
     hold = hold_point(moving_root, psi[up], g, config.hold)
-    out = carry + 0.12 * front + 0.05 * _UP
+    out = carry + 0.12 * front + 0.05 * UP
     s_up = min_jerk(u["stand up"])
     first_leg = along_path([carry, out], np.clip(s_up / 0.4, 0, 1))
     w = smoothstep((s_up - 0.3) / 0.7)[:, None]
@@ -240,7 +245,7 @@ def plan_at_cabinet(body, stance_a, stance_b, exit_xy, bends, task, hands, rng, 
         plan.contacts[span[name], 3 + d] = True
     for name in ("grasp bottle", "take out", "release door", "stand up"):
         plan.contacts[span[name], 3 + g] = True
-    return plan, [(name, n) for name, n, _ in names], door, span["grasp bottle"].start
+    return CabinetPlan(plan, [(name, n) for name, n, _ in names], door, int(span["grasp bottle"].start))
 
 
 def exit_point(scene, grid, xy, clearance: float) -> np.ndarray:
@@ -262,7 +267,7 @@ def _door_elbow(plan, body, cabinet, door, side: int, frames) -> None:
     normal = np.einsum("tij,j->ti", rot_z(sign * door), cabinet.rotation[:, 1])
     handle = handle_at(cabinet, door)
     shoulder = pos[:, (joint_index("left_shoulder"), joint_index("right_shoulder"))[side]]
-    away = np.sign(np.sum((shoulder - handle) * normal, axis=-1))[:, None] * normal - 0.5 * _UP
+    away = np.sign(np.sum((shoulder - handle) * normal, axis=-1))[:, None] * normal - 0.5 * UP
     away /= np.linalg.norm(away, axis=-1, keepdims=True)
     local = np.einsum("tji,tj->ti", glob, away)  # into the chest frame
     plan.elbow_pole[frames, side] = local[frames]
@@ -294,9 +299,10 @@ def _opening_path(door, stance_a, stance_b, frames, cabinet) -> tuple:
 _TURN_SHARE = 1.0 / 3.0  # of the opening and leaning in: turning at A; the rest: stepping to B
 
 
-def plan_at_table(body, stance, bend, spot, place_at, side, config):
-    """The plan at the table: lower the bottle onto ``spot`` (the wrist to ``place_at``), let go and draw the
-    hand back while standing up. Returns ``(plan, phases)``."""
+def plan_at_table(setting: DemoSetting, stance: Stance, bend: tuple, spot, place_at) -> TablePlan:
+    """The plan at the table: lower the bottle onto ``spot`` (the bottle hand's wrist to ``place_at``), let go
+    and draw the hand back while standing up (:class:`~.demo_types.TablePlan`)."""
+    body, config, side = setting.body, setting.config, setting.bottle_side
     xy, heading = stance
     root, ankles, feet = stance_pose(body, xy, heading)
     place, let_go = n_frames(config.durations[7]), n_frames(config.durations[8])
@@ -308,13 +314,13 @@ def plan_at_table(body, stance, bend, spot, place_at, side, config):
     plan.actions[:place] = action_id("grasp")
     plan.actions[place:] = action_id("idle")
     hold = hold_point(root, heading, side, config.hold)
-    above = place_at + 0.06 * _UP
+    above = place_at + 0.06 * UP
     hand_on_point(plan, slice(0, place), side, along_path([hold, above, place_at], min_jerk(u_place)), np.ones(place))
-    back = place_at - 0.10 * forward_xyz(heading) + 0.04 * _UP
+    back = place_at - 0.10 * forward_xyz(heading) + 0.04 * UP
     s = min_jerk(np.clip(u_go / 0.5, 0, 1))
     hand_on_point(plan, slice(place, T), side, along_path([place_at, back], s), 1.0 - smoothstep((u_go - 0.4) / 0.6))
     plan.contacts[:place, 3 + side] = True
-    return plan, [("place", place), ("release bottle", let_go)]
+    return TablePlan(plan, [("place", place), ("release bottle", let_go)])
 
 
 def attach_bottle(bottle, wrists: np.ndarray, yaws: np.ndarray, first: int, last: int) -> np.ndarray:

@@ -63,6 +63,7 @@ import numpy as np
 
 from ..._validate import check_choice, check_positive_ints, check_shape
 from ...infra import scaled_config
+from ...world.mocap.body_plan import UP
 from ...world.objects import CATEGORY_SIZES
 from ...world.scenes import Kitchen
 from ...world.skeleton import joint_index, rest_joint_positions
@@ -97,7 +98,6 @@ __all__ = [
 
 ACTIONS = ("walk", "reach", "grasp", "open", "carry", "place", "release")
 _STATE = {"cabinet": "door_angle", "drawer": "drawer_open"}  # the parameter a door or drawer opens by
-_UP = np.array([0.0, 0.0, 1.0])
 
 
 # ----------------------------------------------------------------------------- configuration
@@ -178,7 +178,7 @@ def arm_span() -> float:
 def _ways(holder) -> list[np.ndarray]:
     """The unit directions an item leaves its holder by: out of the front (+Y), straight up."""
     front = holder.rotation[:, 1] * np.array([1.0, 1.0, 0.0])
-    return [front / np.linalg.norm(front), _UP]
+    return [front / np.linalg.norm(front), UP]
 
 
 def _carcass(holder):
@@ -195,15 +195,15 @@ def _travel(points, box, way, config: SchedulerConfig) -> float:
 def _sweep(item, holder, way, config: SchedulerConfig) -> np.ndarray:
     """(S, P, 3) the item's surface points lifted by ``lift``, then moved along ``way`` in steps of ``step``
     until every point has left the holder's box (an open door included)."""
-    points = item.surface_points(config.surface_samples, seed=0) + config.lift * _UP
+    points = item.surface_points(config.surface_samples, seed=0) + config.lift * UP
     s = np.arange(0.0, _travel(points, holder.bounds, way, config) + config.step, config.step)
     return points[None] + s[:, None, None] * way
 
 
 def _carry_point(contact, item, holder, way, config: SchedulerConfig) -> np.ndarray:
     """(3,) where ``contact`` on the item is once the item, lifted, has left the holder's carcass along ``way``."""
-    points = item.surface_points(config.surface_samples, seed=0) + config.lift * _UP
-    return np.asarray(contact) + config.lift * _UP + _travel(points, _carcass(holder).bounds, way, config) * way
+    points = item.surface_points(config.surface_samples, seed=0) + config.lift * UP
+    return np.asarray(contact) + config.lift * UP + _travel(points, _carcass(holder).bounds, way, config) * way
 
 
 def _scene(kitchen: Kitchen, holder, opening: Optional[float] = None) -> list[tuple]:
@@ -371,7 +371,7 @@ def _aside_spot(obstacle, holder, others, target_swept, config) -> Optional[np.n
         pose = obstacle.pose.copy()
         pose[:3, 3] += offset * side
         moved = obstacle.with_pose(pose)
-        points = moved.surface_points(config.surface_samples, seed=0) + config.lift * _UP
+        points = moved.surface_points(config.surface_samples, seed=0) + config.lift * UP
         clear = all(np.min(o.sdf(points)) >= 0.5 * config.step for o in others)
         if clear and np.min(moved.sdf(target_swept.reshape(-1, 3))) >= 0.5 * config.step:
             return offset * side

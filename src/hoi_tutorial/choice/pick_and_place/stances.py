@@ -13,7 +13,7 @@ box in that module's docstring, where the body stands and how far it bends at th
 
 Also the helpers the demo shares with them: :func:`stance_pose` (the standing pose on a stance),
 :func:`stance_bend` (``world.mocap.standing.choose_bend`` for hand goals) and :func:`item_radius`. The clearances use the body sample points of ``checks``; the
-constants are fields of ``demo.PickAndPlaceConfig``.
+constants are fields of ``demo_types.PickAndPlaceConfig``.
 """
 from __future__ import annotations
 
@@ -25,6 +25,7 @@ from ...world.mocap.poses import standing_pose
 from ...world.mocap.standing import bend_plan, choose_bend
 from ...world.skeleton import joint_index
 from .checks import body_points, bone_table
+from .demo_types import DemoSetting, OpenStance, PickAndPlaceConfig, Stance, TableStance, TakeStance
 
 __all__ = [
     "open_stance",
@@ -55,7 +56,7 @@ def stance_pose(body: PlanBody, xy, heading: float):
     return root, ankles, feet
 
 
-def stance_bend(body, root, heading, ankles, targets, obstacles, style, rng):
+def stance_bend(body, root, heading, ankles, targets, obstacles, *, style: str, rng: np.random.Generator):
     """``(h, alpha, feasible)``: ``choose_bend`` for ``targets`` {side index: point (3,)}."""
     h, alpha, ok, _ = choose_bend(body, root, heading, ankles, targets, style, rng, obstacles=obstacles)
     return h, alpha, ok
@@ -80,11 +81,12 @@ def _clear(points: np.ndarray, objects, margin: float) -> bool:
     return min(float(np.min(o.sdf(flat))) for o in objects) >= margin
 
 
-def open_stance(body, cabinet, task, base_xy, door_side, grid, rng, config):
-    """Stance A ``(xy (2,), heading, bend, source)`` to take the handle: the first matched keyframe's pelvis
+def open_stance(setting: DemoSetting, cabinet, base_xy, grid, rng: np.random.Generator) -> OpenStance:
+    """Stance A (:class:`~.demo_types.OpenStance`) to take the handle with the door hand: the first matched keyframe's pelvis
     (§6.3's walk goal) facing the cabinet, or the nearest 5 cm shift of it (sideways, back; free on the walking
     grid) from which a bend reaches the closed handle and the body keeps ``stance_margin`` from the door over
     the first half of its swing, the feet over the whole swing (the door's lower edge passes over the toes)."""
+    body, task, config, door_side = setting.body, setting.task, setting.config, setting.door_side
     front = cabinet.rotation[:, 1]
     heading = heading_of(-front)
     q = float(task.opening)
@@ -100,7 +102,7 @@ def open_stance(body, cabinet, task, base_xy, door_side, grid, rng, config):
             continue
         root, ankles, feet = stance_pose(body, xy, heading)
         h, alpha, ok = stance_bend(body, root, heading, ankles, {door_side: task.auxiliary.contact}, [cabinet],
-                             config.style, rng)
+                             style=config.style, rng=rng)
         if not ok:
             continue
         points = _trunk_points(body, root, heading, ankles, feet, [(0.0, 0.0), (h, alpha)], config.style)
@@ -110,11 +112,11 @@ def open_stance(body, cabinet, task, base_xy, door_side, grid, rng, config):
                 and _clear(low, full_sweep, margin)):
             continue
         source = "keyframe" if side == 0 and back == 0 else f"keyframe shifted {side:+.2f} m right, {back:+.2f} m back"
-        return xy, heading, (h, alpha), source
+        return OpenStance(xy, heading, (h, alpha), source)
     raise ValueError("kitchen: no stance in front of the cabinet reaches its handle clear of the door")
 
 
-def _posed_points(body, root, heading, ankles, feet, bends, targets, config) -> np.ndarray:
+def _posed_points(body, root, heading, ankles, feet, bends, targets, config: PickAndPlaceConfig) -> np.ndarray:
     """(N, 3) body sample points of the standing pose bent by each of ``bends`` with the wrists on ``targets``
     ({side index: point (3,)} per bend), less the points within ``contact_radius`` of a wrist on its target."""
     n = len(bends)
@@ -134,7 +136,7 @@ def _posed_points(body, root, heading, ankles, feet, bends, targets, config) -> 
     return np.concatenate(keep)
 
 
-def _path_clearance(body, xy0, psi0, xy1, psi1, obstacles, config, n: int = 4) -> float:
+def _path_clearance(body, xy0, psi0, xy1, psi1, obstacles, config: PickAndPlaceConfig, n: int = 4) -> float:
     """The least distance of the standing body (no forearms) to ``obstacles(w)`` (the scene at fraction ``w`` of
     the step) at ``n`` poses on the straight step from ``(xy0, psi0)`` to ``(xy1, psi1)``, metres."""
     out = np.inf
@@ -150,17 +152,19 @@ def _path_clearance(body, xy0, psi0, xy1, psi1, obstacles, config, n: int = 4) -
 _TAKE_CANDIDATES = 8  # feasible stances B weighed; the one farthest from the cabinet and the swinging door wins
 
 
-def take_stance(body, cabinet, task, from_xy, from_heading, hands, rng, config):
-    """Stance B ``(xy (2,), heading, (B2, B3))`` to take the bottle out with the door held open: positions every
+def take_stance(setting: DemoSetting, cabinet, start: Stance, rng: np.random.Generator) -> list[TakeStance]:
+    """The stances B (:class:`~.demo_types.TakeStance`, best first) to take the bottle out with the door held open: positions every
     10 cm in front of the cabinet and headings every 15° within 75° of facing it, nearest to stance A first,
     from which bends reach the opened handle with the door hand and the bottle (B2), then the carry point (B3);
     of the first eight, the one whose body keeps farthest from the cabinet and the door,
     the body keeping ``stance_margin`` from the opened cabinet there and, standing, from the swinging door on the
-    way from A (the second half of the door's swing)."""
+    way from A, ``start`` (the second half of the door's swing)."""
+    body, task, config = setting.body, setting.task, setting.config
+    from_xy, from_heading = start
     front = cabinet.rotation[:, 1]
     q = float(task.opening)
     opened = cabinet.with_params(door_angle=q)
-    d, g = SIDES.index(hands["door"]), SIDES.index(hands["bottle"])
+    d, g = setting.door_side, setting.bottle_side
     handle = opened.handle_point
 
     def swinging(w):  # the door while the body steps from A to B (the second half of the opening)
@@ -187,9 +191,11 @@ def take_stance(body, cabinet, task, from_xy, from_heading, hands, rng, config):
             failed["beyond reach"] += 1
             continue
         root, ankles, feet = stance_pose(body, xy, heading)
-        h2, a2, ok = stance_bend(body, root, heading, ankles, {d: handle, g: contact}, [opened], config.style, rng)
+        h2, a2, ok = stance_bend(body, root, heading, ankles, {d: handle, g: contact}, [opened], style=config.style,
+                                 rng=rng)
         if ok:
-            h3, a3, ok = stance_bend(body, root, heading, ankles, {d: handle, g: carry}, [opened], config.style, rng)
+            h3, a3, ok = stance_bend(body, root, heading, ankles, {d: handle, g: carry}, [opened], style=config.style,
+                                     rng=rng)
         if not ok:
             failed["no bend"] += 1
             continue
@@ -209,15 +215,19 @@ def take_stance(body, cabinet, task, from_xy, from_heading, hands, rng, config):
         if len(found) == _TAKE_CANDIDATES:
             break
     if found:
-        return [f[1:] for f in sorted(found, key=lambda f: -f[0])]
+        return [TakeStance(*f[1:]) for f in sorted(found, key=lambda f: -f[0])]
     raise ValueError("kitchen: no stance in front of the cabinet reaches the opened handle and the bottle at once ("
                      + ", ".join(f"{v} {k}" for k, v in failed.items()) + ")")
 
 
-def table_stance(body, kitchen, grid, from_xy, bottle_side, contact_offset, cabinet_heading, rng, config):
-    """The table's stance ``(xy (2,), heading, bend, spot (3,), place_at (3,))``: spots ``table_inset`` in from
-    each edge of the top, every 10 cm, clear of the other items, with a free stance ``table_gap`` out from the
-    edge from which a bend reaches; the one nearest ``from_xy`` first."""
+def table_stance(setting: DemoSetting, kitchen, grid, start: Stance, contact_offset,
+                 rng: np.random.Generator) -> TableStance:
+    """The table's stance (:class:`~.demo_types.TableStance`) for the bottle hand coming from ``start``, the stance B
+    it took the bottle at (``contact_offset``, the grasp from the bottle's centre, turns with the body): spots
+    ``table_inset`` in from each edge of the top, every 10 cm, clear of the other items, with a free stance
+    ``table_gap`` out from the edge from which a bend reaches; the one nearest ``start`` first."""
+    body, config, bottle_side = setting.body, setting.config, setting.bottle_side
+    from_xy, cabinet_heading = start
     table = kitchen.furniture_of("table")
     z, x0, x1, y0, y1, _ = table.support_surfaces[0]
     bottle = kitchen.items[0]
@@ -245,7 +255,7 @@ def table_stance(body, kitchen, grid, from_xy, bottle_side, contact_offset, cabi
         heading = heading_of(-out)
         place_at = spot + rot_z(heading - cabinet_heading) @ contact_offset
         root, ankles, _ = stance_pose(body, stance, heading)
-        h, alpha, ok = stance_bend(body, root, heading, ankles, {bottle_side: place_at}, [table], config.style, rng)
+        h, alpha, ok = stance_bend(body, root, heading, ankles, {bottle_side: place_at}, [table], style=config.style, rng=rng)
         if ok:
-            return stance, heading, (h, alpha), spot, place_at
+            return TableStance(stance, heading, (h, alpha), spot, place_at)
     raise ValueError("kitchen: no free spot on the table with a stance that reaches it")

@@ -1,0 +1,90 @@
+"""choice/'s layout: three sub-packages by the paper's sections, a later one importing an earlier one and never the
+reverse, no module importing its caller, and every module-level name defined once within choice."""
+import ast
+import pathlib
+from collections import defaultdict
+
+import hoi_tutorial.choice as choice
+
+ROOT = pathlib.Path(choice.__file__).parent
+ORDER = ("planner", "controller", "pick_and_place")  # §4, §5, §6
+
+
+def _modules():
+    """{dotted name relative to choice: parsed module} for every file of the package."""
+    out = {}
+    for path in sorted(ROOT.rglob("*.py")):
+        rel = path.relative_to(ROOT).with_suffix("")
+        parts = [p for p in rel.parts if p != "__init__"]
+        out[".".join(parts)] = ast.parse(path.read_text(), str(path))
+    return out
+
+
+def _imports(name: str, tree: ast.Module) -> set:
+    """The choice modules ``name`` imports (dotted, relative to choice), at any depth of the file."""
+    package = name.split(".") if (ROOT / pathlib.Path(*name.split("."), "__init__.py")).exists() else name.split(".")[:-1]
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.level:
+            base = package[:len(package) - (node.level - 1)] if node.level > 1 else package
+            if node.level - 1 > len(package):
+                continue  # above choice: the rest of hoi_tutorial
+            module = base + (node.module.split(".") if node.module else [])
+            for alias in node.names:
+                candidate = ".".join(module + [alias.name])
+                found.add(candidate if candidate in MODULES else ".".join(module))
+        elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("hoi_tutorial.choice"):
+            found.add(node.module[len("hoi_tutorial.choice."):])
+    return {f for f in found if f in MODULES and f != name}
+
+
+MODULES = _modules()
+
+
+def test_the_three_sections_are_sub_packages():
+    assert set(ORDER) <= set(MODULES)
+    flat = [m for m in MODULES if "." not in m and m not in ORDER and m != ""]
+    assert flat == ["paper_numbers"], f"modules outside the three sections: {flat}"
+
+
+def test_a_section_imports_only_earlier_sections():
+    for name, tree in MODULES.items():
+        if "." not in name:
+            continue
+        section = ORDER.index(name.split(".")[0])
+        for imported in _imports(name, tree):
+            top = imported.split(".")[0]
+            if top in ORDER:
+                assert ORDER.index(top) <= section, f"{name} (§{section + 4}) imports {imported}, a later section"
+
+
+def test_no_module_imports_its_caller():
+    graph = {name: _imports(name, tree) for name, tree in MODULES.items() if name and name not in ORDER}
+    graph = {k: {v for v in vs if v in graph} for k, vs in graph.items()}
+    state = {}
+
+    def visit(node, path):
+        state[node] = "open"
+        for nxt in graph[node]:
+            assert state.get(nxt) != "open", f"import cycle: {' -> '.join(path + [nxt])}"
+            if nxt not in state:
+                visit(nxt, path + [nxt])
+        state[node] = "done"
+
+    for node in graph:
+        if node not in state:
+            visit(node, [node])
+
+
+def test_module_level_names_are_defined_once_within_choice():
+    where = defaultdict(list)
+    for name, tree in MODULES.items():
+        for node in tree.body:
+            if isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+                where[node.name].append(name)
+            elif isinstance(node, ast.Assign):
+                for target in node.targets:
+                    if isinstance(target, ast.Name) and target.id not in ("__all__",):
+                        where[target.id].append(name)
+    twice = {n: ms for n, ms in where.items() if len(ms) > 1}
+    assert not twice, f"defined in more than one module of choice: {twice}"
