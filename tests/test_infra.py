@@ -660,3 +660,64 @@ def test_threads_allowed_lends_cores_to_one_thread_sections():
                 pass
     finally:
         torch.set_num_threads(before)
+
+
+# ----------------------------------------------------------------------------- keys derived from imports
+
+
+def _write_package(root, files: dict) -> None:
+    for name, text in files.items():
+        path = root / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+
+
+def test_an_edit_reached_only_through_imports_changes_the_key_and_nothing_else(tmp_path, monkeypatch):
+    import sys
+
+    from hoi_tutorial.infra import cache
+    from hoi_tutorial.infra.code_closure import code_closure
+
+    _write_package(tmp_path, {
+        "derivedpkg/__init__.py": "",
+        "derivedpkg/tools/__init__.py": "from .deep import scale\n",  # a re-export, as infra/__init__ does
+        "derivedpkg/tools/deep.py": "def scale(x):\n    return 2 * x\n",
+        "derivedpkg/middle.py": "def twice(x):\n    from .tools import scale  # imported inside a function\n"
+                                "    return scale(x)\n",
+        "derivedpkg/builder.py": "from . import middle\n\n\ndef build():\n    return {'v': middle.twice(1)}\n",
+        "derivedpkg/other.py": "def build():\n    return {'v': 0}\n",
+        "derivedpkg/unrelated.py": "VALUE = 1\n",
+    })
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(cache, "DERIVED_PACKAGES", cache.DERIVED_PACKAGES | {"derivedpkg"})
+    for name in [m for m in sys.modules if m.startswith("derivedpkg")]:
+        monkeypatch.delitem(sys.modules, name)
+    builder = importlib.import_module("derivedpkg.builder")
+    other = importlib.import_module("derivedpkg.other")
+    # the builder's module, what it imports, and the module that defines the re-exported name; not the rest
+    assert code_closure("derivedpkg.builder") == ["derivedpkg.builder", "derivedpkg.middle", "derivedpkg.tools.deep"]
+    before = artifact_key("t", {}, (builder.build,)), artifact_key("t", {}, (other.build,))
+    (tmp_path / "derivedpkg/tools/deep.py").write_text("def scale(x):\n    return 3 * x\n")
+    after = artifact_key("t", {}, (builder.build,)), artifact_key("t", {}, (other.build,))
+    assert after[0] != before[0]  # two imports away, one of them inside a function: still a new key
+    assert after[1] == before[1]  # an artifact that never reaches it keeps its key
+    (tmp_path / "derivedpkg/unrelated.py").write_text("VALUE = 2\n")
+    assert artifact_key("t", {}, (builder.build,)) == after[0]
+
+
+def test_library_keys_follow_the_library_imports():
+    from hoi_tutorial.choice.controller import table4
+    from hoi_tutorial.choice.planner import intp
+    from hoi_tutorial.infra.cache import derived_code
+
+    table4_code = derived_code([table4.table4_runs])
+    # Table 4's "w/ KF + cuRobo" row calls the minimum-jerk planner, reached from table4 only by its import
+    assert "hoi_tutorial.choice.planner.baselines" in table4_code
+    assert "hoi_tutorial.world.rotations" in table4_code  # through the controller's features
+    assert not any(m.startswith(("hoi_tutorial.samp", "hoi_tutorial.nifty", "hoi_tutorial.choice.pick_and_place"))
+                   for m in table4_code)
+    planner_code = derived_code([intp.trained_planner])
+    assert "hoi_tutorial.choice.planner.fields" in planner_code
+    assert not any(m.startswith("hoi_tutorial.choice.controller") for m in planner_code)
+    # a function defined outside the library (a test, a notebook cell) adds no module
+    assert derived_code([_producer_a]) == []

@@ -24,7 +24,10 @@ Typical use in a chapter::
     model.load_state_dict(state)
 
 ``code`` takes functions, classes and modules; a package stands for every ``.py`` file in
-it. ``build`` is always part of ``code``. Artifacts are nested dicts, lists and tuples of
+it. ``build`` is always part of ``code``, and every library module that an item of ``code`` is
+defined in, or imports, transitively, counts as well (``code_closure``): an edit to a function a
+builder reaches only through another module rebuilds the artifact. ``code`` then lists only what
+imports cannot show. Artifacts are nested dicts, lists and tuples of
 torch tensors, numpy arrays and python scalars / strings / ``None``; what comes back is
 always on the CPU and identical whether it was just built or loaded.
 """
@@ -51,12 +54,16 @@ from typing import Any, Callable, Iterable
 import numpy as np
 import torch
 
+from .code_closure import code_closure, module_file
+
 __all__ = [
     "CorruptArtifactWarning",
     "NotCachedError",
     "cache_only",
     "cache_dir",
     "artifact_key",
+    "derived_code",
+    "DERIVED_PACKAGES",
     "artifact_path",
     "load_or_build",
     "clear_cache",
@@ -214,6 +221,33 @@ def _source_text(item) -> bytes:
     )
 
 
+# Packages whose code is followed through its imports (``code_closure``): the library's own.
+DERIVED_PACKAGES = {__name__.split(".")[0]}
+
+
+def _defining_module(item) -> str | None:
+    """The name of the module that defines ``item`` (a module: itself)."""
+    if isinstance(item, types.ModuleType):
+        return item.__name__
+    if isinstance(item, functools.partial):
+        return _defining_module(item.func)
+    if isinstance(item, types.MethodType):
+        return _defining_module(item.__func__)
+    return getattr(item, "__module__", None)
+
+
+def derived_code(code: Iterable) -> list[str]:
+    """The library modules the items of ``code`` run: each item's defining module and every library module it
+    imports, transitively (``code_closure``), sorted. Items defined outside ``DERIVED_PACKAGES`` (a notebook's
+    cell, a test) add none: their own source text is hashed as given."""
+    modules = set()
+    for item in code:
+        module = _defining_module(item)
+        if module and module.split(".")[0] in DERIVED_PACKAGES:
+            modules.update(code_closure(module))
+    return sorted(modules)
+
+
 def artifact_key(name: str, config, code: Iterable = ()) -> str:
     """The sha256 hex key of an artifact: its name, configuration and producing source code.
 
@@ -222,10 +256,17 @@ def artifact_key(name: str, config, code: Iterable = ()) -> str:
         config: numbers, strings, ``None``, lists, tuples, dicts with str keys, dataclasses
             and small numpy / torch arrays, in any nesting; anything else is a ``TypeError``.
         code: functions, classes and modules whose source text produced the artifact (a
-            package counts with all its ``.py`` files); order does not matter.
+            package counts with all its ``.py`` files); order does not matter. The library
+            modules they import, transitively, count too (:func:`derived_code`): list here only
+            what imports cannot show.
     """
     _check_name(name)
-    digests = sorted({hashlib.sha256(_source_text(item)).hexdigest() for item in code})
+    code = tuple(code)
+    digests = {hashlib.sha256(_source_text(item)).hexdigest() for item in code}
+    for module in derived_code(code):
+        path = module_file(module)
+        digests.add(hashlib.sha256(module.encode() + b"\0" + path.read_bytes()).hexdigest())
+    digests = sorted(digests)
     document = {"format": FORMAT, "name": name, "config": _canonical(config, "config"),
                 "code": digests}
     text = json.dumps(document, sort_keys=True, separators=(",", ":"), allow_nan=True)
