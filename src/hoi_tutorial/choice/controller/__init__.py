@@ -6,11 +6,11 @@ output layouts), ``network`` (configuration, training data, Fig. 4's network and
 (the step and the rollout with Table 4's goal-phase sources) and ``table4`` (Table 4's runs and measures,
 Table 2's labels, §7, §8.3.1).
 
-The algorithm box, as this module runs it (``B`` characters, ``C`` PAE channels, ``K = 4`` key joints
+The algorithm box, as this package runs it (``B`` characters, ``C`` PAE channels, ``K = 4`` key joints
 root / hip / left wrist / right wrist, ``w = 13`` samples over 2 s):
 
-1. **Data** (:func:`network.controller_data`): toy reach-and-grasp clips (approach walk, reach, grasp); door and drawer
-   clips (walk, reach the handle, pull) too when ``ControllerConfig.kinds`` names them. Keyframes
+1. **Data** (:func:`network.controller_data`): toy reach-and-grasp clips (approach walk, reach, grasp); door and
+   drawer clips (walk, reach the handle, pull) too when ``ControllerConfig.kinds`` names them. Keyframes
    are the grasp (``meta["anchor_frame"]``) and the clip's last frame; ``g(t)`` is the next keyframe at
    or after ``t``. The PAE (``phase``) gives every frame's ``(S, F, A)``.
 2. **Inputs** ``X_t`` (all in the root frame of ``t``): the pose (root-relative joint positions and
@@ -55,10 +55,11 @@ Choices the paper does not state, ours:
   on the click; the paper's ``G^p = 0`` would feed a zero goal phase at first). ``"predicted"`` starts
   from the matched phase too.
 - Training is teacher-forced, then, for its last ``unroll_steps``, unrolled over ``unroll`` frames on the
-  network's own pose, phase and future root trajectory (:func:`network.train_controller`); inputs and outputs are
-  standardised with the training data's mean and std; the loss is the mean squared error in those units.
+  network's own pose, phase and future root trajectory (:func:`network.train_controller`); inputs and outputs
+  are standardised with the training data's mean and std; the loss is the mean squared error in those units.
 - At run time each joint moves half-way from its previous position carried by the predicted velocity to the
-  predicted position (``features.POSE_BLEND``, :func:`features.blended_pose`), as Starke et al.'s released controllers do.
+  predicted position (``features.POSE_BLEND``, :func:`features.blended_pose`), as Starke et al.'s released
+  controllers do.
 - A rollout starts with the future root trajectory on the straight line to the goal's root at 1 m/s
   (:func:`runtime.toward_goal`; a standing start is a fixed point the toy controller may not leave).
 
@@ -67,10 +68,10 @@ in 51 / 54 / 52 s with seeds 0 / 1 / 2. On 12 unseen reaches the working wrist c
 0.31 m of its grasp with the Kalman goal phase, 0.08 / 0.17 / 0.20 m without a goal phase (Table 4's runs,
 ``table4.table4_runs``); 3000 steps (600 unrolled) took about 70 s for Kalman medians of 0.13 / 0.31 / 0.38 m.
 Before the hip's and wrists' trajectories were inputs, those medians were 0.37 / 0.40 / 0.14 m, and with seed 2 some
-characters blew up (unsmoothness 3 346 cm/s², against 156 now). Trained on 16 clips of each of ``features.CLIP_KINDS``
-instead (about as many frames, 2400 steps), the door wrist of ``pick_and_place.demo.controller_at_cabinet`` came within
-0.31 / 0.22 / 0.28 m of the demo's handle from its standing start, against 0.63 / 0.43 / 0.43 m: nearer, still 20–30
-cm short, while Table 4's Kalman row slid 246 / 389 / 193 cm/s² against 158 / 98 / 194 and, with seed 1, moved less
+characters blew up (unsmoothness 3 346 cm/s², against 156 now). Trained on 16 clips of each of
+``features.CLIP_KINDS`` instead (about as many frames, 2400 steps), the door wrist of
+``pick_and_place.demo.controller_at_cabinet`` came within 0.31 / 0.22 / 0.28 m of the demo's handle from its
+standing start, against 0.63 / 0.43 / 0.43 m: nearer, still 20–30 cm short, while Table 4's Kalman row slid 246 / 389 / 193 cm/s² against 158 / 98 / 194 and, with seed 1, moved less
 smoothly than the recorded clips (381 against 299 cm/s²). So the toy preset keeps reach-and-grasp clips only.
 
 Scaling (paper → toy): 8 PAE channels → 4 (``phase``); gating 3 × 128 → 2 × 64 hidden + output, main

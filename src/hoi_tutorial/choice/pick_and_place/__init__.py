@@ -16,7 +16,8 @@ Modules, in the order of the paper:
   configuration, the setting, stances and plans) in ``demo_types``. The body there is posed by IK and the toy
   world's body planner, not yet by the controller.
 """
-from . import checks, demo, demo_types, environment, goal_library, locomotion, motion_pieces, navigation, scheduler, stances
+from . import (checks, demo, demo_types, environment, goal_library, locomotion, motion_pieces, navigation, scheduler,
+               stances)
 
 __all__ = ["environment", "goal_library", "navigation", "locomotion", "scheduler", "demo", "demo_types", "stances",
            "motion_pieces", "checks"]
