@@ -5,6 +5,7 @@ import pathlib
 from collections import defaultdict
 
 import hoi_tutorial.choice as choice
+from hoi_tutorial.infra.code_closure import imported_modules
 
 ROOT = pathlib.Path(choice.__file__).parent
 ORDER = ("planner", "controller", "pick_and_place")  # §4, §5, §6
@@ -20,22 +21,12 @@ def _modules():
     return out
 
 
-def _imports(name: str, tree: ast.Module) -> set:
-    """The choice modules ``name`` imports (dotted, relative to choice), at any depth of the file."""
-    package = name.split(".") if (ROOT / pathlib.Path(*name.split("."), "__init__.py")).exists() else name.split(".")[:-1]
-    found = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.ImportFrom) and node.level:
-            base = package[:len(package) - (node.level - 1)] if node.level > 1 else package
-            if node.level - 1 > len(package):
-                continue  # above choice: the rest of hoi_tutorial
-            module = base + (node.module.split(".") if node.module else [])
-            for alias in node.names:
-                candidate = ".".join(module + [alias.name])
-                found.add(candidate if candidate in MODULES else ".".join(module))
-        elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("hoi_tutorial.choice"):
-            found.add(node.module[len("hoi_tutorial.choice."):])
-    return {f for f in found if f in MODULES and f != name}
+def _imports(name: str) -> set:
+    """The choice modules ``name`` imports (dotted, relative to choice), at any depth of the file
+    (``infra.code_closure``, which the artifact keys use too)."""
+    prefix = "hoi_tutorial.choice."
+    full = (prefix + name) if name else prefix[:-1]
+    return {m[len(prefix):] for m in imported_modules(full) if m.startswith(prefix)} & set(MODULES) - {name}
 
 
 MODULES = _modules()
@@ -48,18 +39,18 @@ def test_the_three_sections_are_sub_packages():
 
 
 def test_a_section_imports_only_earlier_sections():
-    for name, tree in MODULES.items():
+    for name in MODULES:
         if "." not in name:
             continue
         section = ORDER.index(name.split(".")[0])
-        for imported in _imports(name, tree):
+        for imported in _imports(name):
             top = imported.split(".")[0]
             if top in ORDER:
                 assert ORDER.index(top) <= section, f"{name} (§{section + 4}) imports {imported}, a later section"
 
 
 def test_no_module_imports_its_caller():
-    graph = {name: _imports(name, tree) for name, tree in MODULES.items() if name and name not in ORDER}
+    graph = {name: _imports(name) for name in MODULES if name and name not in ORDER}
     graph = {k: {v for v in vs if v in graph} for k, vs in graph.items()}
     state = {}
 

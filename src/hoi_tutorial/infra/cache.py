@@ -225,14 +225,14 @@ def _source_text(item) -> bytes:
 DERIVED_PACKAGES = {__name__.split(".")[0]}
 
 
-def _defining_module(item) -> str | None:
+def _module_name_of(item) -> str | None:
     """The name of the module that defines ``item`` (a module: itself)."""
     if isinstance(item, types.ModuleType):
         return item.__name__
     if isinstance(item, functools.partial):
-        return _defining_module(item.func)
+        return _module_name_of(item.func)
     if isinstance(item, types.MethodType):
-        return _defining_module(item.__func__)
+        return _module_name_of(item.__func__)
     return getattr(item, "__module__", None)
 
 
@@ -242,7 +242,7 @@ def derived_code(code: Iterable) -> list[str]:
     cell, a test) add none: their own source text is hashed as given."""
     modules = set()
     for item in code:
-        module = _defining_module(item)
+        module = _module_name_of(item)
         if module and module.split(".")[0] in DERIVED_PACKAGES:
             modules.update(code_closure(module))
     return sorted(modules)

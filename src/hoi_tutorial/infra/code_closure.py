@@ -50,10 +50,6 @@ def module_file(name: str) -> Optional[pathlib.Path]:
     return path if path.exists() else None
 
 
-def _is_package(name: str, path: pathlib.Path) -> bool:
-    return path.name == "__init__.py"
-
-
 def _exists(name: str) -> bool:
     return module_file(name) is not None
 
@@ -67,21 +63,12 @@ def _named_imports(name: str, source: bytes, is_package: bool) -> list[tuple[str
         if isinstance(node, ast.Import):
             found.extend((alias.name, alias.name) for alias in node.names)
         elif isinstance(node, ast.ImportFrom):
-            if node.level:  # relative: from the module's package, one level up per extra dot
-                parts = package.split(".") if package else []
-                if node.level - 1 > len(parts):
-                    continue
-                base = ".".join(parts[:len(parts) - (node.level - 1)])
-                target = f"{base}.{node.module}" if node.module else base
-            else:
-                target = node.module
-            if not target:
-                continue
+            try:  # a relative import resolved against the module's package, as the import system does
+                target = importlib.util.resolve_name("." * node.level + (node.module or ""), package)
+            except (ImportError, ValueError):
+                continue  # above the top-level package
             for alias in node.names:  # a module of the package where it is one, else the package's own name
                 found.append((f"{target}.{alias.name}", target) if alias.name != "*" else (target, target))
-            continue
-        else:
-            continue
     return found
 
 
@@ -120,7 +107,7 @@ def imported_modules(name: str) -> list[str]:
     if cached is None:
         top = name.split(".")[0]
         names = set()
-        for as_module, otherwise in _named_imports(name, source, _is_package(name, path)):
+        for as_module, otherwise in _named_imports(name, source, path.name == "__init__.py"):
             if as_module.split(".")[0] != top:
                 continue
             names.add(as_module if _exists(as_module) else _defining_module(otherwise, as_module.rpartition(".")[2]))

@@ -20,6 +20,8 @@ and object", the 2 cm reach tolerance, both segments (approach and leave) of a p
 """
 from __future__ import annotations
 
+import dataclasses
+import sys
 import time
 from dataclasses import dataclass
 
@@ -28,7 +30,7 @@ import numpy as np
 from ... import metrics
 from ...infra import load_or_build
 from ...world.objects import CATEGORY_SIZES, object_from_description
-from . import fields
+from . import baselines, fields, interactions, intp
 from .interactions import InteractionSet
 
 __all__ = [
@@ -210,10 +212,6 @@ def table3_runs(data_config, planner_config, policy_config, *, seed: int = 0, de
         [unsmoothness, safety, min_clearance, end_error, success, frames], "seconds": plan times}}}``
         and ``"cases"``: the number of cases per condition.
     """
-    import dataclasses
-    import sys
-
-    from . import baselines, interactions, intp
 
     def build():
         train = interactions.interaction_set(data_config, "train")
