@@ -2,7 +2,6 @@
 training pairs, its closed-loop rollout, errors."""
 import numpy as np
 import pytest
-import torch
 
 from hoi_tutorial.choice.planner import baselines, fields, interactions
 

@@ -67,6 +67,9 @@ def test_the_latent_fit_lowers_eq_9_and_plans_end_on_the_goal(tiny):
     plan = intp.plan_trajectory(model, cfg, train, scene, inter.condition, start, inter.wrist[-1])
     assert np.linalg.norm(plan.positions[-1] - inter.wrist[-1]) < 1e-6
     assert plan.rotations.shape == (len(plan.positions), 3, 3)
+    # v̄ of Eq. 11 is the matched prior's mean wrist speed; the integration steps v̄/30 a frame
+    prior = train.interactions[plan.prior_index].wrist
+    assert plan.mean_speed == pytest.approx(np.linalg.norm(np.diff(prior, axis=0), axis=1).mean() * 30)
     # fitting is deterministic for a seed
     again = intp.fit_latent(model, cfg, scene, inter.condition, points, values)
     assert torch.equal(fit.codes, again.codes)
@@ -109,6 +112,23 @@ def test_integration_and_start_point_in_an_empty_scene():
         intp.start_point(grid, np.full(grid.shape, 5.0), wrist, 0.5)
     with pytest.raises(ValueError, match="mean_speed"):
         intp.start_point(grid, phi, wrist, 0.0)
+
+
+def test_a_plan_from_the_wrist_walks_straight_to_x_s_at_the_mean_speed():
+    positions = np.array([[0.3, 0.0, 1.0], [0.32, 0.0, 1.0], [0.34, 0.0, 1.0], [0.35, 0.0, 1.0]])
+    plan = intp.WristPlan(positions, np.broadcast_to(np.eye(3), (4, 3, 3)), positions[0], 0, None, None, 0.0,
+                          mean_speed=0.6)
+    wrist = np.array([0.0, 0.4, 1.0])  # 50 cm from x_s
+    path = plan.from_wrist(wrist)
+    np.testing.assert_allclose(path[0], wrist)
+    np.testing.assert_allclose(path[-len(positions):], positions)
+    walk = path[: len(path) - len(positions) + 1]  # the walk and x_s
+    steps = np.linalg.norm(np.diff(walk, axis=0), axis=1)
+    assert len(steps) == 25 and np.allclose(steps, 0.5 / 25)  # ⌈0.5 m / (0.6 m/s / 30)⌉ equal steps, none faster
+    assert np.allclose(np.cross(walk - wrist, positions[0] - wrist), 0.0)  # on the straight line
+    np.testing.assert_allclose(plan.from_wrist(positions[0]), positions)  # already at x_s: nothing added
+    with pytest.raises(ValueError, match="mean_speed"):
+        intp.WristPlan(positions, plan.rotations, positions[0], 0, None, None, 0.0).from_wrist(wrist)
 
 
 def test_orientation_transfer_gives_rotations_and_keeps_the_prior_on_its_own_path():

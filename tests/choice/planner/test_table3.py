@@ -1,4 +1,6 @@
 """CHOICE Table 3's protocol and baselines: the minimum-jerk planner, scene changes, run measures."""
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
@@ -53,6 +55,14 @@ def test_cases_keep_the_goal_clear_and_move_it_with_a_reshaped_container(test_se
             source = test.interactions[case.source]
             assert case.obstacle_sdf(case.goal) > 0.01 and case.obstacle_sdf(case.start) > 0
             assert abs(float(case.target.sdf(case.goal))) < 0.02  # still on the (moved) item
+            assert case.condition[0] == pytest.approx(case.goal[2])  # c's goal height is the (moved) goal's
+            np.testing.assert_array_equal(case.condition[1:], source.condition[1:])
+            # the item is carried on a pick's leave: its points stand on the target at the contact
+            assert (case.item_points is not None) == (source.condition[3] == 1)
+            if case.item_points is not None:
+                assert np.abs(case.target.sdf(case.item_points)).max() < 1e-6
+        if reshape:  # reshaping moves goals up and down: c follows them
+            assert max(abs(c.condition[0] - test.interactions[c.source].condition[0]) for c in cases) > 0.01
             if not reshape:  # the item and the container stay; the clutter moves by at most 5 cm
                 np.testing.assert_allclose(case.goal, source.wrist[-1], atol=1e-9)
                 for before, after in zip(source.obstacle_objects()[1:], case.obstacles[1:]):
@@ -76,3 +86,29 @@ def test_run_measures_count_collisions_and_the_reach(test_set):
     assert row["successes"] == 1 and row["runs"] == 3 and row["success (%)"] == pytest.approx(100 / 3)
     with pytest.raises(ValueError, match="path: expected a"):
         table3.measure_run(straight[:2], case)
+    with pytest.raises(ValueError, match="path: expected a path starting at the case's start"):
+        table3.measure_run(straight[1:], case)  # every planner is judged from the same start
+
+
+def test_a_carried_item_driven_into_its_board_is_a_collision(test_set):
+    config, test = test_set
+    leaves = [c for c in table3.planning_cases(test, config.field, reshape=False) if c.item_points is not None]
+    assert leaves
+    for case in leaves:
+        # the wrist comes to the contact from 4 cm straight below it: clear itself, the item it carries is
+        # pushed 4 cm down into the board it stands on
+        below = case.goal - [0.0, 0.0, 0.04]
+        path = np.concatenate([case.start + np.linspace(0, 1, 20)[:, None] * (below - case.start),
+                               below + np.linspace(0, 1, 6)[1:, None] * (case.goal - below)])
+        run = table3.measure_run(path, case)
+        if run.min_clearance <= 0:
+            continue  # this wrist path itself hits something: not the case to test with
+        assert run.item_clearance < -table3.ITEM_REST_TOLERANCE and run.collided and not run.success and run.end_error < 1e-9
+        # the same path without the item (an approach) is judged on the wrist alone
+        bare = table3.measure_run(path, dataclasses.replace(case, item_points=None))
+        assert np.isnan(bare.item_clearance) and not bare.collided and bare.success
+        # the safety distance is the hand's and the object's: the item is nearer the board than the wrist
+        assert run.safety < bare.safety
+        break
+    else:
+        pytest.fail("no leave case with a clear wrist path from below")

@@ -572,6 +572,9 @@ class WristPlan:
         fit: the latent optimisation.
         code: (latent,) the code used (the best initialisation's unless one was asked for).
         seconds: total planning time.
+        segment: ``"approach"`` or ``"leave"``.
+        mean_speed: ``v̄`` of Eq. 11 (m/s), the matched prior's mean wrist speed; the integration steps
+            ``v̄ / fps`` metres a frame.
     """
 
     positions: np.ndarray
@@ -582,6 +585,24 @@ class WristPlan:
     code: torch.Tensor
     seconds: float
     segment: str = "approach"
+    mean_speed: float = float("nan")
+
+    def from_wrist(self, wrist, fps: float = 30.0) -> np.ndarray:
+        """(K', 3) metres, the contact last: ``positions`` preceded by a straight walk from ``wrist`` (the wrist
+        at the planning frame, ``w`` of Eq. 11) to ``start`` (``x_s``) at ``mean_speed`` (``v̄``).
+
+        CHOICE integrates from ``x_s`` and leaves the way from ``w`` to ``x_s`` to the controller; a path that is
+        compared with planners starting at ``w`` (Table 3) starts there too (ours: the straight line at the
+        speed Eq. 11 assumes).
+        """
+        wrist = np.asarray(wrist, dtype=np.float64)
+        check_shape(wrist, (3,), "wrist")
+        if not self.mean_speed > 0:
+            raise ValueError(f"mean_speed: expected the plan's positive v̄ (m/s), got {self.mean_speed!r}")
+        distance = float(np.linalg.norm(self.start - wrist))
+        n = int(np.ceil(distance / (self.mean_speed / float(fps))))
+        walk = wrist + np.arange(n)[:, None] / max(n, 1) * (self.start - wrist)
+        return np.concatenate([walk, self.positions])
 
     def in_time_order(self) -> tuple[np.ndarray, np.ndarray]:
         """(positions, rotations) in the order the wrist moves (a leave starts at the release)."""
@@ -651,5 +672,5 @@ def plan_each_init(model: AutoDecoder, config: PlannerConfig, dataset: Interacti
         path = np.concatenate([path[:-n], (1 - w) * path[-n:] + w * carried[-n:]])
         rotations = transfer_orientation(carried, prior.wrist_rotations, path)
         plans.append(WristPlan(path, rotations, x_s, prior_index, fit, code,
-                          fit_seconds + time.perf_counter() - clock, segment))
+                               fit_seconds + time.perf_counter() - clock, segment, mean_speed))
     return plans

@@ -10,13 +10,24 @@ changed as §8.2.2 says:
 
 keeping the "pickable" cases: the goal (the demonstration's contact, moved with its item) at least
 1 cm from every obstacle, the start (the demonstration's wrist where it enters the grid) outside
-every obstacle, no clutter item inside the target.
+every obstacle, no clutter item inside the target. A case's ``c`` is its own: the goal height of a
+reshaped case is its moved goal's.
+
+Every planner is judged by the same rules:
+
+- its path starts at the case's start, the wrist at the planning frame (the implicit planner's path
+  walks from there to its ``x_s``: ``intp.WristPlan.from_wrist``);
+- **collision-free**: the wrist never inside an obstacle and, on a segment that carries the item (a
+  pick's leave, a place's approach), the item's surface points, carried with the wrist, never more than
+  ``ITEM_REST_TOLERANCE`` inside one (at the contact the item stands on its board);
+- **success**: collision-free and ending within 2 cm of the goal.
 
 Measures (``metrics``): unsmoothness (the wrist's mean acceleration, m/s²), the spare safety distance
-(the wrist's distance to the nearest obstacle, averaged over the frames within 20 cm of the goal, over
-the successful runs; cm) and the success rate (collision-free — the wrist never inside an obstacle —
-and ending within 2 cm of the goal). Ours where CHOICE is silent: the wrist point stands for "the hand
-and object", the 2 cm reach tolerance, both segments (approach and leave) of a pick as cases.
+("from the hand and object": the nearest obstacle's distance to the wrist and, while it is carried, to
+the item, averaged over the frames within 20 cm of the goal, over the successful runs; cm) and the
+success rate. Ours where CHOICE is silent: the wrist point stands for the hand, the item is carried by
+translation (the baselines plan no orientation), the 2 cm reach tolerance, both segments (approach and
+leave) of a pick as cases.
 """
 from __future__ import annotations
 
@@ -24,6 +35,7 @@ import dataclasses
 import sys
 import time
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -34,6 +46,7 @@ from . import baselines, fields, interactions, intp
 from .interactions import InteractionSet
 
 __all__ = [
+    "ITEM_REST_TOLERANCE",
     "PlanningCase",
     "scale_object",
     "planning_cases",
@@ -46,6 +59,10 @@ __all__ = [
 ]
 
 
+ITEM_REST_TOLERANCE = 0.005  # metres a carried item's points may lie inside an obstacle (ours: it rests on its board)
+ITEM_POINTS = 32  # surface points of a carried item checked for collisions (ours)
+
+
 @dataclass
 class PlanningCase:
     """One test planning problem.
@@ -56,8 +73,10 @@ class PlanningCase:
         scene: its fields (``D_toa`` not computed: the planners never see it).
         start: (3,) metres, the wrist where the plan starts.
         goal: (3,) metres, the contact.
-        condition: (4,) ``c``.
+        condition: (4,) ``c`` (its goal height ``goal[2]``).
         reshaped: whether the container was reshaped.
+        item_points: (M, 3) metres, the item's surface points at the contact, when the segment carries it
+            (a pick's leave or a place's approach); else None.
     """
 
     source: int
@@ -68,6 +87,7 @@ class PlanningCase:
     goal: np.ndarray
     condition: np.ndarray
     reshaped: bool
+    item_points: Optional[np.ndarray] = None
 
     def obstacle_sdf(self, points):
         """Signed distance to the nearest obstacle (numpy or torch points (..., 3))."""
@@ -139,7 +159,11 @@ def planning_cases(test: InteractionSet, config_field: fields.FieldConfig, *, re
         if not pickable:
             continue
         scene = fields.scene_fields(grid, new_target, obstacles, None, 30.0, config_field)
-        cases.append(PlanningCase(k, new_target, obstacles, scene, start, goal, inter.condition.copy(), reshape))
+        condition = inter.condition.copy()
+        condition[0] = goal[2]  # c's goal height follows a reshaped goal
+        carries = (action == "grasp") == (float(inter.condition[3]) > 0.5)  # a pick's leave, a place's approach
+        item_points = new_target.surface_points(ITEM_POINTS, seed=0) if carries else None
+        cases.append(PlanningCase(k, new_target, obstacles, scene, start, goal, condition, reshape, item_points))
     return cases
 
 
@@ -149,29 +173,49 @@ class RunMeasures:
 
     unsmoothness: float  # m/s², mean acceleration of the wrist
     safety: float  # metres, mean clearance within 20 cm of the goal
-    min_clearance: float  # metres, smallest clearance along the path (negative: a collision)
+    min_clearance: float  # metres, smallest clearance of the wrist along the path (negative: a collision)
     end_error: float  # metres, from the last frame to the goal
     success: bool
     frames: int
+    item_clearance: float = float("nan")  # metres, smallest clearance of the carried item (nan: none carried)
+
+    @property
+    def collided(self) -> bool:
+        """The wrist inside an obstacle, or the carried item deeper than ``ITEM_REST_TOLERANCE`` in one."""
+        return bool(self.min_clearance <= 0 or self.item_clearance < -ITEM_REST_TOLERANCE)
 
 
 def measure_run(path, case: PlanningCase, fps: float = 30.0, reach: float = 0.02) -> RunMeasures:
-    """Table 3's measures of one wrist path (T, 3) metres on ``case`` (the path's frames are checked,
-    and four points between each pair, for collisions)."""
+    """Table 3's measures of one wrist path (T, 3) metres on ``case``, the contact last (module docstring).
+
+    The path's frames are checked for collisions, and four points between each pair; the carried item
+    (``case.item_points``) moves with the wrist by the wrist's displacement from the goal.
+    """
     path = np.asarray(path, dtype=np.float64)
     if path.ndim != 2 or path.shape[1] != 3 or len(path) < 3:
         raise ValueError(f"path: expected a (T >= 3, 3) wrist path, got shape {path.shape}")
+    if np.linalg.norm(path[0] - case.start) > 1e-6:
+        raise ValueError(f"path: expected a path starting at the case's start {case.start.round(3).tolist()} "
+                         f"(the wrist at the planning frame), got one starting at {path[0].round(3).tolist()}")
     between = path[:-1, None] + np.linspace(0, 1, 5, endpoint=False)[None, :, None] * np.diff(path, axis=0)[:, None]
     dense = np.concatenate([between.reshape(-1, 3), path[-1:]])
     clearance = case.obstacle_sdf(path)
     min_clearance = float(min(clearance.min(), case.obstacle_sdf(dense).min()))
+    item_clearance = float("nan")
+    if case.item_points is not None:  # the item rides with the wrist: its points shifted by (x_t - goal)
+        carried = lambda p: case.obstacle_sdf(case.item_points[None] + (p - case.goal)[:, None]).min(axis=1)
+        per_frame = carried(path)
+        clearance = np.minimum(clearance, per_frame)  # the hand and the object
+        item_clearance = float(min(per_frame.min(), carried(dense).min()))
     end_error = float(np.linalg.norm(path[-1] - case.goal))
     near = metrics.near_endpoint_mask(path, case.goal, 0.2)
-    return RunMeasures(
+    measures = RunMeasures(
         unsmoothness=float(metrics.unsmoothness(path, fps, has_joint_axis=False)),
         safety=float(metrics.safety_distance(clearance, near)),
-        min_clearance=min_clearance, end_error=end_error,
-        success=bool(min_clearance > 0 and end_error < reach), frames=len(path))
+        min_clearance=min_clearance, end_error=end_error, success=False, frames=len(path),
+        item_clearance=item_clearance)
+    measures.success = bool(not measures.collided and end_error < reach)
+    return measures
 
 
 def summarise(runs: list[RunMeasures]) -> dict:
@@ -200,17 +244,20 @@ def table3_runs(data_config, planner_config, policy_config, *, seed: int = 0, de
     """Every planner of Table 3 on the test cases with and without reshaping, built once and then loaded
     from the cache.
 
-    The minimum-jerk optimiser (the cuRobo stand-in) plans from the start to the goal over the frames
-    the straight distance takes at the training demonstrations' mean wrist speed; the diffusion policy
-    (``baselines.trained_diffusion_policy`` with ``policy_config``) is rolled out ``planner_config.inits``
-    times per case (each rollout's own sampling noise; all cases and repeats in one batch); each planner
-    variant is trained (``intp.trained_planner`` with its channels) and plans with each of its
-    ``planner_config.inits`` latent initialisations.
+    Every planner starts at the case's start (the wrist). The minimum-jerk optimiser (the cuRobo stand-in)
+    plans from there to the goal over the frames the straight distance takes at the training
+    demonstrations' mean wrist speed; the diffusion policy (``baselines.trained_diffusion_policy`` with
+    ``policy_config``) is rolled out ``planner_config.inits`` times per case (each rollout's own sampling
+    noise; all cases and repeats in one batch); each planner variant is trained (``intp.trained_planner``
+    with its channels) and plans with each of its ``planner_config.inits`` latent initialisations, its path
+    walking from the wrist to ``x_s`` first (``intp.WristPlan.from_wrist``).
 
     Returns:
-        ``{"w/o reshaping" | "w/ reshaping": {planner: {"runs": (inits or 1, cases, 6) measures
-        [unsmoothness, safety, min_clearance, end_error, success, frames], "seconds": plan times}}}``
-        and ``"cases"``: the number of cases per condition.
+        ``{"w/o reshaping" | "w/ reshaping": {planner: {"runs": (inits or 1, cases, 7) measures
+        [unsmoothness, safety, min_clearance, end_error, success, frames, item_clearance], "seconds": plan
+        times}}}`` and ``"cases"``: the number of cases per condition. The auto-decoders' entries also hold
+        ``"runs from x_s"``: the same plans judged from their own ``x_s``, the walk from the wrist left out (a
+        control: what the walk costs them).
     """
 
     def build():
@@ -247,14 +294,19 @@ def table3_runs(data_config, planner_config, policy_config, *, seed: int = 0, de
             for name, ch in PLANNER_VARIANTS.items():
                 cfg = dataclasses.replace(planner_config, channels=ch)
                 per_init = [[] for _ in range(cfg.inits)]
+                from_start = [[] for _ in range(cfg.inits)]
                 seconds = []
                 for case in cases:
                     plans = intp.plan_each_init(models[name], cfg, train, case.scene, case.condition, case.start,
                                                    case.goal, inits=range(cfg.inits))
                     seconds.append(np.mean([p.seconds for p in plans]))
                     for k, plan in enumerate(plans):
-                        per_init[k].append(_as_row(measure_run(plan.positions, case)))
-                rows[name] = {"runs": np.asarray(per_init), "seconds": np.asarray(seconds)}
+                        per_init[k].append(_as_row(measure_run(plan.from_wrist(case.start), case)))
+                        # the control: the integrated path alone, judged from its own x_s
+                        own_start = dataclasses.replace(case, start=plan.start)
+                        from_start[k].append(_as_row(measure_run(plan.positions, own_start)))
+                rows[name] = {"runs": np.asarray(per_init), "seconds": np.asarray(seconds),
+                              "runs from x_s": np.asarray(from_start)}
             out[label] = rows
         return out
 
@@ -263,13 +315,15 @@ def table3_runs(data_config, planner_config, policy_config, *, seed: int = 0, de
     return load_or_build("choice_table3", key, build, code=(sys.modules[__name__], baselines, intp, interactions, fields))
 
 
-_ROW = ("unsmoothness", "safety", "min_clearance", "end_error", "success", "frames")
+_ROW = ("unsmoothness", "safety", "min_clearance", "end_error", "success", "frames", "item_clearance")
 
 
 def _as_row(m: RunMeasures) -> list:
-    return [m.unsmoothness, m.safety, m.min_clearance, m.end_error, float(m.success), float(m.frames)]
+    return [m.unsmoothness, m.safety, m.min_clearance, m.end_error, float(m.success), float(m.frames),
+            m.item_clearance]
 
 
 def runs_from_rows(rows) -> list[RunMeasures]:
-    """:class:`RunMeasures` back from ``table3_runs``' rows (cases, 6)."""
-    return [RunMeasures(float(r[0]), float(r[1]), float(r[2]), float(r[3]), bool(r[4] > 0.5), int(r[5])) for r in np.asarray(rows)]
+    """:class:`RunMeasures` back from ``table3_runs``' rows (cases, 7)."""
+    return [RunMeasures(float(r[0]), float(r[1]), float(r[2]), float(r[3]), bool(r[4] > 0.5), int(r[5]), float(r[6]))
+            for r in np.asarray(rows)]
