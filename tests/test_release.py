@@ -1,0 +1,51 @@
+"""The release metadata agree: one version, one repository address, the licences the metadata names."""
+import re
+from pathlib import Path
+
+import pytest
+import yaml
+
+import hoi_tutorial
+
+tomllib = pytest.importorskip("tomllib")  # Python 3.11+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _pyproject():
+    return tomllib.loads((ROOT / "pyproject.toml").read_text())
+
+
+def _citation():
+    return yaml.safe_load((ROOT / "CITATION.cff").read_text())
+
+
+def test_one_version_everywhere():
+    version = _pyproject()["project"]["version"]
+    assert hoi_tutorial.__version__ == version
+    assert str(_citation()["version"]) == version
+    released = re.findall(r"^## \[(\d+\.\d+\.\d+)\] — (\d{4}-\d{2}-\d{2})$", (ROOT / "CHANGELOG.md").read_text(),
+                          flags=re.M)
+    assert released, "CHANGELOG.md: expected release headings '## [X.Y.Z] — YYYY-MM-DD'"
+    assert released[0][0] == version  # the newest release is the package's version
+    assert str(_citation()["date-released"]) == released[0][1]
+
+
+def test_one_repository_address():
+    url = yaml.safe_load((ROOT / "_config.yml").read_text())["repository"]["url"]
+    assert _pyproject()["project"]["urls"]["Repository"] == url
+    assert _citation()["repository-code"] == url
+    assert _pyproject()["project"]["urls"]["Changelog"].startswith(url + "/")
+
+
+def test_the_licences_are_there_and_named_alike():
+    assert (ROOT / "LICENSE").read_text().startswith("MIT License")
+    assert _pyproject()["project"]["license"] == {"text": "MIT"} and _citation()["license"] == "MIT"
+    content = (ROOT / "LICENSE-CONTENT.md").read_text()
+    assert "CC BY 4.0" in content and "creativecommons.org/licenses/by/4.0" in content
+
+
+def test_the_citation_cites_the_three_papers():
+    titles = [r["title"] for r in _citation()["references"]]
+    assert any(t.startswith("NIFTY") for t in titles) and any(t.startswith("CHOICE") for t in titles)
+    assert "Stochastic Scene-Aware Motion Prediction" in titles
