@@ -11,6 +11,9 @@ TORCH_INDEX_URL ?=
 BOOK_FLAGS ?=
 # Extra flags for scripts/bench.py, e.g. BENCH_ARGS="--notebooks 01_toy_world --isolated".
 BENCH_ARGS ?=
+# The exact versions `make venv` installs (a pip constraints file; `make lock` regenerates it), used where the
+# environment's Python is the lock's (its header says which). Empty: resolve requirements.txt's lower bounds afresh.
+LOCK ?= requirements.lock
 # Chapters scripts/colab_check.py executes in a bare runtime (empty: its default, chapters 01 and 02).
 COLAB_CHAPTERS ?=
 
@@ -29,21 +32,30 @@ endif
 HYPOTHESIS_PROFILE ?= ci
 export HYPOTHESIS_PROFILE
 
-.PHONY: venv test unit-test unit-test-other-kernels test-fresh book bench colab-check clean strip
+.PHONY: venv lock test unit-test unit-test-other-kernels test-fresh book bench colab-check clean strip
 
 venv: $(STAMP)
 
-$(STAMP): requirements.txt pyproject.toml
+$(STAMP): requirements.txt pyproject.toml $(LOCK)
 	@test -x $(PY) || $(PYTHON3) -m venv $(VENV_DIR)
 	@if $(PY) -c "import torch" >/dev/null 2>&1; then \
 		echo "torch already present in $(VENV_DIR): keeping it"; \
 	else \
 		$(PY) -m pip install "$(TORCH_SPEC)" $(if $(TORCH_INDEX_URL),--extra-index-url $(TORCH_INDEX_URL)); \
 	fi
-	$(PY) -m pip install -r requirements.txt
+	@lock="$(LOCK)"; minor=$$($(PY) -c 'import sys; print("%d.%d" % sys.version_info[:2])'); \
+	if [ -n "$$lock" ] && ! grep -q "^# Python $$minor\." "$$lock"; then \
+		echo "$$lock was resolved on another Python than $$minor: installing requirements.txt's lower bounds"; lock=""; \
+	fi; \
+	echo "$(PY) -m pip install -r requirements.txt $${lock:+-c $$lock}"; \
+	$(PY) -m pip install -r requirements.txt $${lock:+-c $$lock}
 	$(PY) -m pip install -e .
 	$(PY) -m ipykernel install --sys-prefix --name python3
 	@touch $(STAMP)
+
+# Regenerate requirements.lock from requirements.txt in a fresh environment (scripts/lock_requirements.sh).
+lock:
+	PYTHON3=$(PYTHON3) TORCH_SPEC="$(TORCH_SPEC)" TORCH_INDEX_URL="$(TORCH_INDEX_URL)" bash scripts/lock_requirements.sh
 
 # Unit tests, then every chapter executed as a test with nbval in lax mode (a cell fails on an
 # exception or a failed assert). pytest exits with 5 when it collects no tests: not a failure.

@@ -49,3 +49,26 @@ def test_the_citation_cites_the_three_papers():
     titles = [r["title"] for r in _citation()["references"]]
     assert any(t.startswith("NIFTY") for t in titles) and any(t.startswith("CHOICE") for t in titles)
     assert "Stochastic Scene-Aware Motion Prediction" in titles
+
+
+def _requirements(path):
+    from packaging.requirements import Requirement
+
+    lines = [line.split("#")[0].strip() for line in (ROOT / path).read_text().splitlines()]
+    return [Requirement(line) for line in lines if line]
+
+
+def test_the_lock_pins_every_requirement_within_its_bounds():
+    from packaging.utils import canonicalize_name
+
+    pins = {canonicalize_name(r.name): r for r in _requirements("requirements.lock")}
+    for pin in pins.values():  # exact versions only
+        assert len(pin.specifier) == 1 and next(iter(pin.specifier)).operator == "==", pin
+    for requirement in _requirements("requirements.txt"):
+        name = canonicalize_name(requirement.name)
+        if name == "torch":  # pinned by TORCH_SPEC (its build differs between CPU, CUDA and Colab)
+            assert name not in pins
+            continue
+        assert name in pins, f"requirements.lock: {requirement.name} is not pinned; run `make lock`"
+        version = next(iter(pins[name].specifier)).version
+        assert requirement.specifier.contains(version, prereleases=True), (requirement, version)
