@@ -47,6 +47,7 @@ from .interactions import InteractionSet
 
 __all__ = [
     "ITEM_REST_TOLERANCE",
+    "REACH",
     "PlanningCase",
     "scale_object",
     "planning_cases",
@@ -61,6 +62,7 @@ __all__ = [
 
 ITEM_REST_TOLERANCE = 0.005  # metres a carried item's points may lie inside an obstacle (ours: it rests on its board)
 ITEM_POINTS = 32  # surface points of a carried item checked for collisions (ours)
+REACH = 0.02  # metres: a successful run ends this close to the goal (ours)
 
 
 @dataclass
@@ -185,7 +187,7 @@ class RunMeasures:
         return bool(self.min_clearance <= 0 or self.item_clearance < -ITEM_REST_TOLERANCE)
 
 
-def measure_run(path, case: PlanningCase, fps: float = 30.0, reach: float = 0.02) -> RunMeasures:
+def measure_run(path, case: PlanningCase, fps: float = 30.0, reach: float = REACH) -> RunMeasures:
     """Table 3's measures of one wrist path (T, 3) metres on ``case``, the contact last (module docstring).
 
     The path's frames are checked for collisions, and four points between each pair; the carried item
