@@ -136,8 +136,11 @@ def test_the_deviation_weighs_with_the_rollouts_filter_config(trained, start):
 def test_the_kalman_goal_phase_is_filter_step_by_hand(trained, start):
     state, goal = start
     run = runtime.rollout(trained.model, state, goal, 4, "kalman")
-    estimate, covariance = goal.phase.double().numpy(), np.zeros(tuple(goal.phase.shape) + (3,))
-    config, variance = kalman.PhaseFilterConfig(), trained.model.phase_variance.double().numpy()
+    # A_max is the training data's largest amplitude; the matched phase enters bounded by it
+    config, variance = runtime.phase_filter_config(trained.model), trained.model.phase_variance.double().numpy()
+    assert config.amplitude_max == pytest.approx(float(trained.model.phase_amplitude_max))
+    matched = kalman.constrain(goal.phase.double().numpy(), config)
+    estimate, covariance = matched, np.zeros(tuple(goal.phase.shape) + (3,))
     s = state
     for t in range(4):
         fed = features.goal_phase_features(estimate)
@@ -152,7 +155,7 @@ def test_the_kalman_goal_phase_is_filter_step_by_hand(trained, start):
         estimate, covariance = kalman.filter_step(estimate, covariance, variance,
                                                   out["goal_phase_state"].double().numpy(),
                                                   out["deviation"].double().numpy()[:, None], config,
-                                                  matched_goal=goal.phase.double().numpy(), use_matched=active[:, None])
+                                                  matched_goal=matched, use_matched=active[:, None])
 
 
 def test_clear_errors(trained, start):
@@ -285,3 +288,18 @@ def test_the_cached_controller_trained_on_cuda_comes_back_wholly_on_the_cpu(tmp_
     trained = network.trained_controller(config, device="cuda")
     tensors = [*trained.model.named_parameters(), *trained.model.named_buffers()]
     assert [name for name, t in tensors if t.device.type != "cpu"] == []
+
+
+def test_every_goal_phase_source_is_bounded_by_the_same_amplitude(trained, start):
+    model = trained.model
+    data = network.controller_data(network.controller_config("toy", **TINY), model.phase_model)
+    assert float(model.phase_amplitude_max) == pytest.approx(data.amplitude_max) and data.amplitude_max > 0
+    state, goal = start
+    config = runtime.phase_filter_config(model)
+    assert config.amplitude_max == pytest.approx(data.amplitude_max)
+    loud = goal._replace(phase=goal.phase.clone())
+    loud.phase[..., 1] = 10 * data.amplitude_max  # a matched amplitude far above any in the data
+    for variant in ("matched", "predicted", "kalman"):
+        run = runtime.rollout(model, state, loud, 1, variant)
+        fed = features.phase_state(run.goal_phase[0])  # (B, C, 3) [S, A, F] fed at the first step
+        assert float(fed[..., 1].max()) == pytest.approx(data.amplitude_max, rel=1e-5), variant

@@ -3,8 +3,8 @@
 Modules: ``phase`` (the DeepPhase periodic autoencoder, §5, §7), ``kalman`` (the phase dynamical system and
 the goal-phase Kalman filter, Eqs. 15–22, Algorithm 1), ``features`` (key joints, goal phase, the input and
 output layouts), ``network`` (configuration, training data, Fig. 4's network and its training), ``runtime``
-(the step and the rollout with Table 4's goal-phase sources) and ``table4`` (Table 4's runs and measures,
-Table 2's labels, §7, §8.3.1).
+(the step and the rollout with Table 4's goal-phase sources) and ``measures`` (Table 4's measures, Table 2's
+labels, §7, §8.3.1; Table 4's runs, whose goals come from §6.1's matching, are ``pick_and_place.table4``).
 
 The algorithm box, as this package runs it (``B`` characters, ``C`` PAE channels, ``K = 4`` key joints
 root / hip / left wrist / right wrist, ``w = 13`` samples over 2 s):
@@ -35,7 +35,8 @@ root / hip / left wrist / right wrist, ``w = 13`` samples over 2 s):
 6. **Goal phase sources** (:func:`runtime.rollout`, Table 4): ``"none"`` (zeros), ``"matched"`` (the matched
    clip's phase at its keyframe, held), ``"predicted"`` (the network's own ``P̂_g`` fed back), ``"kalman"``
    (``kalman.filter_step`` on the network's ``P̂_g`` with ``R_pred = c Q`` and the matched phase with
-   ``R = Q`` where ``matched_measurement_active``; Algorithm 1).
+   ``R = Q`` where ``matched_measurement_active``; Algorithm 1). Each is bounded alike: the amplitude in
+   ``[0, A_max]``, ``A_max`` the largest amplitude of the training frames (``runtime.phase_filter_config``).
 
 Choices the paper does not state, ours:
 
@@ -65,8 +66,9 @@ Choices the paper does not state, ours:
 
 Measured at toy (one CPU thread): 48 clips, about 8 400 frames, 2400 steps (the last 400 unrolled over 6 frames)
 in 51 / 54 / 52 s with seeds 0 / 1 / 2. On 12 unseen reaches the working wrist comes within a median 0.13 / 0.22 /
-0.31 m of its grasp with the Kalman goal phase, 0.08 / 0.17 / 0.20 m without a goal phase (Table 4's runs,
-``table4.table4_runs``); 3000 steps (600 unrolled) took about 70 s for Kalman medians of 0.13 / 0.31 / 0.38 m.
+0.31 m of its grasp with the Kalman goal phase, 0.08 / 0.17 / 0.20 m without a goal phase (Table 4's runs when
+their goals were the test clips' own keyframes; with goals matched in the library, ``pick_and_place.table4``,
+0.11 / 0.27 / 0.36 m with the Kalman goal phase and 0.10 / 0.32 / 0.38 m without); 3000 steps (600 unrolled) took about 70 s for Kalman medians of 0.13 / 0.31 / 0.38 m.
 Before the hip's and wrists' trajectories were inputs, those medians were 0.37 / 0.40 / 0.14 m, and with seed 2 some
 characters blew up (unsmoothness 3 346 cm/s², against 156 now). Trained on 16 clips of each of
 ``features.CLIP_KINDS`` instead (about as many frames, 2400 steps), the door wrist of
@@ -79,6 +81,6 @@ network 3 × 512 → 3 × 128; experts (not stated in CHOICE; DeepPhase 8) → 4
 150 epochs (8 h) → ``clips`` toy clips for ``steps`` batches; 60 fps → 30 fps; the full 22-joint pose
 (no joint rotations, ours) stands for the paper's pose.
 """
-from . import features, kalman, network, phase, runtime, table4
+from . import features, kalman, measures, network, phase, runtime
 
-__all__ = ["phase", "kalman", "features", "network", "runtime", "table4"]
+__all__ = ["phase", "kalman", "features", "network", "runtime", "measures"]

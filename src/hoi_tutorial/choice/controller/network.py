@@ -123,12 +123,15 @@ class ControllerData(NamedTuple):
         x: (N, in) the inputs (goal phase without noise). y: (N, out) the targets.
         phase_variance: (C, 3) ``σ̄``, the variance of ``[S, A, F]`` over the frames.
         clip: (N,) long, the clip of each frame (frames of a clip are consecutive); None: one clip.
+        amplitude_max: the largest PAE amplitude over the frames (the run time's ``A_max``, as chapter 18 takes
+            it from the data: CHOICE's ``A_max = 1`` is for its normalised latents).
     """
 
     x: torch.Tensor
     y: torch.Tensor
     phase_variance: torch.Tensor
     clip: Optional[torch.Tensor] = None
+    amplitude_max: float = 1.0
 
 
 def controller_data(config: ControllerConfig, pae: PhaseAutoencoder) -> ControllerData:
@@ -137,7 +140,8 @@ def controller_data(config: ControllerConfig, pae: PhaseAutoencoder) -> Controll
     parts = [clip_features(clip, pae) for clip in clips]
     states = torch.cat([s for _, _, s in parts])
     clip = torch.cat([torch.full((len(x),), i, dtype=torch.long) for i, (x, _, _) in enumerate(parts)])
-    return ControllerData(torch.cat([x for x, _, _ in parts]), torch.cat([y for _, y, _ in parts]), states.var(0), clip)
+    return ControllerData(torch.cat([x for x, _, _ in parts]), torch.cat([y for _, y, _ in parts]), states.var(0), clip,
+                          float(states[..., 1].max()))  # [S, A, F]: the amplitudes
 
 
 # ----------------------------------------------------------------------------- the network
@@ -167,16 +171,19 @@ class ControllerNet(nn.Module):
                                  ("y_mean", self.out_size, 0.0), ("y_std", self.out_size, 1.0)):
             self.register_buffer(name, torch.full((size,), fill))
         self.register_buffer("phase_variance", torch.ones(C, 3))
+        self.register_buffer("phase_amplitude_max", torch.ones(()))
         self.phase_model = pae
         for p in pae.parameters():
             p.requires_grad_(False)
 
     def set_statistics(self, data: ControllerData) -> None:
-        """Standardise with the data's mean and std (a constant coordinate keeps a unit scale); keep ``σ̄``."""
+        """Standardise with the data's mean and std (a constant coordinate keeps a unit scale); keep ``σ̄`` and the
+        largest amplitude."""
         for name, values in (("x", data.x), ("y", data.y)):
             getattr(self, f"{name}_mean").copy_(values.mean(0))
             getattr(self, f"{name}_std").copy_(values.std(0).clamp_min(1e-3))
         self.phase_variance.copy_(data.phase_variance.clamp_min(1e-6))
+        self.phase_amplitude_max.fill_(float(data.amplitude_max))
 
     def forward_standardised(self, xn: torch.Tensor) -> torch.Tensor:
         """``ŷ (B, out)`` standardised from ``xn (B, in)`` standardised."""

@@ -8,7 +8,7 @@ characters with one of Table 4's goal-phase sources, the Kalman filter of ``kalm
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 import numpy as np
 import torch
@@ -25,8 +25,8 @@ from .features import (FUTURE_OFFSETS, KEY_JOINTS, PAST, SAMPLE_STEP, TRANSFORM,
                        next_root_frame, phase_state, pose_features, wrapped_angle)
 from .network import ControllerConfig, ControllerNet
 
-__all__ = ["ControllerState", "KeyJointGoal", "initial_state", "clip_goal", "toward_goal", "controller_step",
-           "Rollout", "rollout"]
+__all__ = ["ControllerState", "KeyJointGoal", "initial_state", "clip_goal", "toward_goal", "phase_filter_config",
+           "controller_step", "Rollout", "rollout"]
 
 class ControllerState(NamedTuple):
     """The characters' state between two frames (``B`` characters).
@@ -260,36 +260,44 @@ class Rollout(NamedTuple):
     state: ControllerState
 
 
+def phase_filter_config(model: ControllerNet, **overrides) -> kalman.PhaseFilterConfig:
+    """The goal-phase constants of a rollout: ``A_max`` the largest amplitude of the model's training frames
+    (``model.phase_amplitude_max``), the rest ``kalman.PhaseFilterConfig``'s unless overridden."""
+    return kalman.PhaseFilterConfig(**{"amplitude_max": float(model.phase_amplitude_max), **overrides})
+
+
 @torch.inference_mode()
 def rollout(model: ControllerNet, state: ControllerState, goal: KeyJointGoal, frames: int, variant: str = "kalman",
             blend_radius: float = ControllerConfig.blend_radius,
-            filter_config: kalman.PhaseFilterConfig = kalman.PhaseFilterConfig()) -> Rollout:
+            filter_config: Optional[kalman.PhaseFilterConfig] = None) -> Rollout:
     """Drive ``B`` characters toward their goals for ``frames`` frames with one goal-phase source (Table 4).
 
     ``variant``: ``"none"`` (zeros), ``"matched"`` (``goal.phase`` held), ``"predicted"`` (the network's
     previous ``P̂_g``, starting from ``goal.phase``) or ``"kalman"`` (Algorithm 1: ``kalman.filter_step`` on
     the network's ``P̂_g`` with ``R_pred = c Q`` and, where ``matched_measurement_active``, ``goal.phase``
-    with ``R = Q``; starting from ``goal.phase`` with ``P = 0``).
+    with ``R = Q``; starting from ``goal.phase`` with ``P = 0``). Every source's goal phase is bounded alike
+    (``kalman.constrain``: the amplitude in ``[0, A_max]``, the frequency in ``[0, F_m]``), as the filter bounds
+    its own; ``filter_config`` None: :func:`phase_filter_config`.
     """
     check_choice(variant, VARIANTS, "variant")
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
         raise ValueError(f"frames: expected a positive int, got {frames!r}")
+    filter_config = phase_filter_config(model) if filter_config is None else filter_config
     B = state.origin.shape[0]
     _check_step_inputs(model, state, goal, torch.zeros(B, 3 * model.channels))
-    estimate = goal.phase.double().numpy()
-    matched = estimate.copy()
+    matched = kalman.constrain(goal.phase.double().numpy(), filter_config)
+    estimate = matched.copy()
     covariance = np.zeros(estimate.shape + (3,))
     variance = model.phase_variance.double().numpy()
     centre = goal.positions[:, WINDOW // 2]
     root_goal, hand_goal = centre[:, 0, :2].double().numpy(), centre[torch.arange(B), 2 + goal.hand].double().numpy()
     records = []
     for _ in range(frames):
-        fed = torch.zeros(B, 3 * model.channels) if variant == "none" else goal_phase_features(
-            goal.phase if variant == "matched" else estimate)
+        fed = torch.zeros(B, 3 * model.channels) if variant == "none" else goal_phase_features(estimate)
         state, out = _step(model, state, goal, fed, blend_radius, filter_config)
         predicted = out["goal_phase_state"].double().numpy()
         if variant == "predicted":
-            estimate = predicted
+            estimate = kalman.constrain(predicted, filter_config)
         elif variant == "kalman":
             check_finite(predicted, "the network's goal phase")  # a blown-up step stops here, not in the filter
             hand = out["wrist"][torch.arange(B), goal.hand]

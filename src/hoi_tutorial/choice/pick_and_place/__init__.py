@@ -15,9 +15,11 @@ Modules, in the order of the paper:
   ``motion_pieces``, its collision checks in ``checks`` and the small types they pass each other (the
   configuration, the setting, stances and plans) in ``demo_types``. The body there is posed by IK and the toy
   world's body planner, not yet by the controller.
+- ``table4``: Table 4's runs (§8.3.1) — the controller (§5) driven toward goals matched by §6.1 in unseen scenes,
+  with each source of the goal phase.
 """
 from . import (checks, demo, demo_types, environment, goal_library, locomotion, motion_pieces, navigation, scheduler,
-               stances)
+               stances, table4)
 
 __all__ = ["environment", "goal_library", "navigation", "locomotion", "scheduler", "demo", "demo_types", "stances",
-           "motion_pieces", "checks"]
+           "motion_pieces", "checks", "table4"]

@@ -34,8 +34,8 @@ from . import environment
 from .environment import (GOAL_KINDS, HANDLED_CATEGORY, HANDS, EnvironmentAutoencoder, EnvironmentConfig, HandGoal,
                           KeyPose, encode, environment_field, floor_sdf, goal_frame, object_yaw)
 
-__all__ = ["LibraryConfig", "LIBRARY_SCALES", "library_config", "goal_keyframes", "GoalLibrary", "build_goal_library",
-           "Match", "match_goal"]
+__all__ = ["LibraryConfig", "LIBRARY_SCALES", "library_config", "keyframe_row", "goal_keyframes", "GoalLibrary",
+           "build_goal_library", "Match", "match_goal"]
 
 
 @dataclass(frozen=True)
@@ -63,9 +63,11 @@ def library_config(scale: str = "toy", **overrides) -> LibraryConfig:
     return scaled_config(LibraryConfig, scale, LIBRARY_SCALES, overrides, factory="library_config")
 
 
-def _clip_row(motion, kind: str, grid: FieldGrid, environment, config: EnvironmentConfig,
-              action: str = "grasp") -> dict:
-    """One library row: the goal's field, ``c`` and the key joints at the first contact and at the end."""
+def keyframe_row(motion, kind: str, grid: FieldGrid, environment, config: EnvironmentConfig,
+                 action: str = "grasp") -> dict:
+    """One library row of a clip whose first contact is ``meta["anchor_frame"]``: the goal's field (``grid`` around
+    the goal, ``environment`` the things around it), ``c`` and the key joints at the first contact and at the end
+    (:func:`goal_keyframes`'s row)."""
     hand, anchor = motion.meta["hand"], int(motion.meta["anchor_frame"])
     to_goal = np.linalg.inv(goal_frame(grid))
     contact = KeyPose.from_motion(motion, anchor).transformed(to_goal)
@@ -98,12 +100,12 @@ def goal_keyframes(config: EnvironmentConfig, library: LibraryConfig) -> list[di
             support = object_from_description(motion.meta["support"])
             grid = fields.object_grid(target, config.field, yaw=object_yaw(support))
             for action in ("grasp", "place"):
-                rows.append(_clip_row(motion, "item", grid, [support, floor_sdf], config, action))
+                rows.append(keyframe_row(motion, "item", grid, [support, floor_sdf], config, action))
             for kind, clip in (("door", open_door), ("drawer", open_drawer)):
                 furniture = make_object(HANDLED_CATEGORY[kind], rng, **{"door_angle" if kind == "door" else "drawer_open": 0.0})
                 motion = clip(furniture, hand=hand, seed=seed, approach=False)
                 grid = fields.object_grid(furniture, config.field, centre=furniture.handle_point)
-                rows.append(_clip_row(motion, kind, grid, [furniture, floor_sdf], config))
+                rows.append(keyframe_row(motion, kind, grid, [furniture, floor_sdf], config))
         return rows
 
     key = {"field": dataclasses.asdict(config.field), "truncation": config.truncation,

@@ -1,4 +1,4 @@
-"""CHOICE Table 4's motion measures and Table 2's label distribution (``choice.controller.table4``), and the
+"""CHOICE Table 4's motion measures and Table 2's label distribution (``choice.controller.measures``), and the
 transcribed paper numbers they are set beside."""
 import dataclasses
 
@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from hoi_tutorial.choice import paper_numbers
-from hoi_tutorial.choice.controller import table4
+from hoi_tutorial.choice.controller import measures
 from hoi_tutorial.world import mocap
 from hoi_tutorial.world.motion import ACTIONS
 
@@ -21,29 +21,29 @@ def clips():
 def test_window_features_ignore_where_the_clip_stands_and_faces(clips):
     walk = clips[0]
     moved = walk.transformed(yaw=1.1, translation=(2.0, -1.5, 0.0))
-    a, b = table4.pose_window_features(walk), table4.pose_window_features(moved)
+    a, b = measures.pose_window_features(walk), measures.pose_window_features(moved)
     assert a.shape == b.shape and a.shape[1] == 66 * 7
     np.testing.assert_allclose(a, b, atol=1e-4)
     with pytest.raises(ValueError, match="sample_every: expected a divisor"):
-        table4.pose_window_features(walk, sample_every=7)
+        measures.pose_window_features(walk, sample_every=7)
 
 
 def test_detected_foot_contacts_agree_with_the_mocap_labels(clips):
     for walk in clips[:3]:
-        detected = table4.foot_contacts(walk)
+        detected = measures.foot_contacts(walk)
         labelled = np.asarray(walk.contacts)[:, 1:3] > 0.5  # left_foot, right_foot
         assert np.mean(detected == labelled) > 0.95  # measured: 0.979-0.986
 
 
 def test_a_wobble_raises_unsmoothness_sliding_and_the_distance_to_the_data(clips):
     walk = clips[1]
-    data = np.concatenate([table4.pose_window_features(c) for c in clips[:3]])
+    data = np.concatenate([measures.pose_window_features(c) for c in clips[:3]])
     t = torch.arange(len(walk.root_position), dtype=walk.root_position.dtype) / walk.fps
     # the whole body shaken sideways at 3 Hz: feet slide while planted, every joint accelerates
     shaken = dataclasses.replace(walk, root_position=walk.root_position + 0.03 * torch.stack(
         [torch.sin(2 * np.pi * 3 * t), torch.zeros_like(t), torch.zeros_like(t)], -1))
-    clean = table4.motion_measures(walk, data)
-    wobbly = table4.motion_measures(shaken, data)
+    clean = measures.motion_measures(walk, data)
+    wobbly = measures.motion_measures(shaken, data)
     assert wobbly["Unsmth."] > clean["Unsmth."] and wobbly["Slid."] > clean["Slid."]
     assert wobbly["FD"] > clean["FD"]
 
@@ -52,19 +52,19 @@ def test_wrist_curvature_is_read_on_the_given_segments(clips):
     reach = clips[3]
     hand = reach.meta["hand"]
     segment = (int(reach.meta["interaction_start"]), int(reach.meta["anchor_frame"]) + 1)
-    out = table4.motion_measures(reach, wrist_segments=[segment], hand=hand)
+    out = measures.motion_measures(reach, wrist_segments=[segment], hand=hand)
     assert np.isnan(out["FD"]) and out["EE RMSC"] > 0
     with pytest.raises(ValueError, match="wrist_segments"):
-        table4.motion_measures(reach, wrist_segments=[(5, 6)])
+        measures.motion_measures(reach, wrist_segments=[(5, 6)])
     with pytest.raises(ValueError, match="hand: expected"):
-        table4.motion_measures(reach, hand="middle")
+        measures.motion_measures(reach, hand="middle")
 
 
 def test_label_distribution_counts_seconds_per_key_joint_task(clips):
-    rows = table4.label_distribution(clips)
+    rows = measures.label_distribution(clips)
     assert [(r[0], r[1]) for r in rows] == [(r[0], r[1]) for r in paper_numbers.TABLE2]
     total = sum(len(c.actions) for c in clips) / 30.0
-    hip = [r for r, spec in zip(rows, table4.KEY_JOINT_TASKS) if spec[0] == "hip"]
+    hip = [r for r, spec in zip(rows, measures.KEY_JOINT_TASKS) if spec[0] == "hip"]
     assert sum(r[2] for r in hip) == pytest.approx(total) and sum(r[3] for r in hip) == pytest.approx(100.0)
     walking = sum(int(np.sum(np.isin(np.asarray(c.actions), [ACTIONS.index("walk"), ACTIONS.index("run"),
                                                                   ACTIONS.index("side_step")]))) for c in clips) / 30.0
@@ -72,7 +72,7 @@ def test_label_distribution_counts_seconds_per_key_joint_task(clips):
     grasp = rows[0]
     assert 0 < grasp[2] < total  # the reaches' reach, grasp and lift frames
     with pytest.raises(ValueError, match="motions: expected"):
-        table4.label_distribution([])
+        measures.label_distribution([])
 
 
 def test_transcribed_tables_have_the_printed_shape():
@@ -80,23 +80,3 @@ def test_transcribed_tables_have_the_printed_shape():
                                           "w/ KF goal", "Dataset"]
     assert paper_numbers.TABLE4["w/ KF goal"]["FD"] == 670 and paper_numbers.TABLE4["Dataset"]["FD"] == "-"
     assert sum(r[3] for r in paper_numbers.TABLE2 if r[0] in ("Idle", "Walk")) == pytest.approx(100.0)
-
-
-def test_straight_approach_keeps_the_ends_and_is_straight():
-    from hoi_tutorial.choice.controller.runtime import KeyJointGoal as Goal
-
-    rng = np.random.default_rng(0)
-    positions = torch.as_tensor(rng.normal(size=(2, 13, 4, 3)), dtype=torch.float32)
-    rotations = torch.eye(3).expand(2, 13, 4, 3, 3).clone()
-    goal = Goal(positions, rotations, torch.zeros(2, 4, 3), torch.tensor([0, 1]))
-    straight = table4.straight_approach_goal(goal, goal.hand)
-    for b, k in ((0, 2), (1, 3)):
-        path = straight.positions[b, :7, k].double()
-        assert torch.allclose(path[[0, -1]], positions[b, [0, 6], k].double(), atol=1e-5)
-        line = path[-1] - path[0]
-        off = torch.linalg.cross(path - path[0], line.expand_as(path)).norm(dim=-1) / line.norm()
-        assert float(off.max()) < 1e-4  # on the line between the ends
-    # everything else is untouched: the other wrist, the samples after the keyframe, the rotations
-    assert torch.equal(straight.positions[0, :, 3], positions[0, :, 3])
-    assert torch.equal(straight.positions[:, 7:], positions[:, 7:])
-    assert torch.equal(straight.rotations, rotations)

@@ -1,0 +1,317 @@
+"""Table 4's runs (CHOICE §8.3.1): the controller's goal-phase sources on unseen reach-and-grasp scenes, each goal
+matched by §6.1 against the goal library — keyframes of other clips — and never taken from the clip under test.
+
+The algorithm box, as this module runs it (``B`` scenes):
+
+1. **Scenes** (:func:`reach_scene`): a held-out reach-and-grasp clip (``world.mocap`` with the seed
+   ``10 000 + seed``, never trained on) gives what a user's click gives — the item on its support, its grasp
+   point, the working hand — and a start, the character at the clip's first frame. The recorded motion itself
+   is measured in the ``"Dataset"`` row and nowhere else.
+2. **Matching** (§6.1, :func:`matched_goals`): the scene's hand goal (the distance field around the item; ``c`` =
+   the grasp height, the hand, grasp, approach) queries a goal library of "all the goal keyframes in the training
+   set" (:func:`reach_library`: the grasp of each of the controller's training reaches, in ``goal_library``'s
+   KD-trees); the nearest keyframe's clip gives
+   - the goal window ``G^keyJ``: its root, hip and wrists over the 2 s window at its grasp, carried into the scene
+     as ``goal_library.match_goal`` carries a keyframe — into the new goal's frame, then shifted so that the working
+     wrist lies on the grasp point (the root kept on the ground);
+   - the matched goal phase: that clip's PAE phase ``[S, A, F]`` at its grasp, precomputed (§5.2: "the
+     corresponding phase of each frames can be precomputed by the PAE").
+3. **Rows** (:func:`table4_runs`): each drives all scenes in one batch from its start for ``anchor + after``
+   frames (``anchor`` the held-out clip's grasp frame, so that every row is measured over the recording's span):
+   ``"w/o goal phase"``, ``"w/ matched goal"``, ``"w/ predicted goal"`` and ``"w/ KF goal"`` are
+   ``controller.runtime.rollout``'s four goal-phase sources; ``"w/ KF + cuRobo"`` is the Kalman one with the
+   working wrist's approach replaced by the straight minimum-jerk path (:func:`straight_approach_goal`).
+   Every row bounds its goal phase by the same ``A_max``, the largest amplitude of the controller's training
+   frames (``controller.runtime.phase_filter_config``).
+4. **Measures** (``controller.measures``): unsmoothness, sliding, the Fréchet distance of 2 s pose windows
+   against the controller's training clips, the working wrist's RMS curvature on its approach.
+
+Ours, where CHOICE does not say or where the toy differs:
+
+- The nearest keyframe (``k = 1``) gives both the window and the phase.
+- **The working wrist's approach** in the goal window is the matched clip's (CHOICE's ``τ_prior`` carried into
+  the scene); CHOICE re-plans it around the scene with §4's planner (``τ_plan``, Eq. 12). Not done here.
+- The library is the controller's training reaches (walk up, reach, grasp), not ``goal_library.goal_keyframes``'
+  clips, which reach from where they stand: a goal window holding no walk is one the toy controller never saw
+  in training, and with it the wrists stopped about 0.8 m from their grasps (median, seed 1).
+- A held-out clip's grasp point and hand are the scene's (``meta["grasp_point"]``, ``["hand"]``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import sys
+import time
+from typing import NamedTuple, Optional
+
+import numpy as np
+import torch
+
+from ... import metrics
+from ...infra import load_or_build
+from ...world import mocap
+from ...world.motion import FPS, Motion
+from ...world.objects import object_from_description
+from ..controller import network, phase, runtime
+from ..controller.features import WINDOW, WINDOW_OFFSETS, WRIST_JOINTS, key_joint_transforms
+from ..controller.measures import motion_measures, pose_window_features
+from ..planner import baselines, fields
+from . import environment as env
+from . import goal_library
+from .environment import HANDS, EnvironmentConfig, floor_sdf, goal_frame
+from .goal_library import GoalLibrary
+
+__all__ = ["TABLE4_ROWS", "ReachScene", "reach_scene", "KeyframeWindow", "reach_library", "MatchedGoals",
+           "matched_goals", "reach_goals", "straight_approach_goal", "table4_runs"]
+
+TABLE4_ROWS = ("w/ KF + cuRobo", "w/o goal phase", "w/ matched goal", "w/ predicted goal", "w/ KF goal")
+_ROW_VARIANT = {"w/ KF + cuRobo": "kalman", "w/o goal phase": "none", "w/ matched goal": "matched",
+                "w/ predicted goal": "predicted", "w/ KF goal": "kalman"}
+_CENTRE = WINDOW // 2
+
+
+class ReachScene(NamedTuple):
+    """What a user's click on an item gives (no motion).
+
+    Attributes:
+        item: the ``ToyObject`` as placed. support: the table or shelf it stands on.
+        grasp_point: (3,) metres, where the wrist goes. hand: ``"left"`` or ``"right"``.
+    """
+
+    item: object
+    support: object
+    grasp_point: np.ndarray
+    hand: str
+
+
+def reach_scene(clip: Motion) -> ReachScene:
+    """The scene of a ``world.mocap`` reach-and-grasp clip, read from its ``meta`` only (the item, its support, the
+    grasp point and the hand), never from its frames."""
+    if not isinstance(clip, Motion):
+        raise ValueError(f"clip: expected a world.motion.Motion, got {type(clip).__name__}")
+    missing = [k for k in ("object", "support", "grasp_point", "hand") if k not in clip.meta]
+    if missing or clip.meta["support"] is None:
+        raise ValueError(f"clip: expected a reach-and-grasp clip with meta object, support, grasp_point and hand; "
+                         f"missing {missing or ['support']}")
+    return ReachScene(object_from_description(clip.meta["object"]), object_from_description(clip.meta["support"]),
+                      np.asarray(clip.meta["grasp_point"], dtype=np.float64), str(clip.meta["hand"]))
+
+
+class KeyframeWindow(NamedTuple):
+    """A library keyframe's goal window, precomputed (one per library clip).
+
+    Attributes:
+        positions: (13, 4, 3) the root, hip, left and right wrist over the 2 s window at the first contact, in the
+            clip's world (metres). rotations: (13, 4, 3, 3) theirs.
+        phase: (C, 3) the clip's PAE phase ``[S, A, F]`` at the contact.
+        frame: (4, 4) ``world_from_goal`` of the clip's goal (``environment.goal_frame`` of its grid).
+        seed: the clip's seed (its ``meta["seed"]``).
+    """
+
+    positions: np.ndarray
+    rotations: np.ndarray
+    phase: np.ndarray
+    frame: np.ndarray
+    seed: int
+
+
+def _scene_grid(scene: ReachScene, config: EnvironmentConfig):
+    """The object-centric grid of a reach's goal: around the item, yawed like its support (as the library's)."""
+    return fields.object_grid(scene.item, config.field, yaw=env.object_yaw(scene.support))
+
+
+@torch.no_grad()
+def reach_library(clips, env_model: env.EnvironmentAutoencoder, phase_model: phase.PhaseAutoencoder,
+                  config: EnvironmentConfig = EnvironmentConfig()) -> tuple[GoalLibrary, list]:
+    """The goal library of reach-and-grasp ``clips`` (CHOICE's: "all the goal keyframes in the training set"), one
+    keyframe per clip at its grasp, and each keyframe's :class:`KeyframeWindow` — its key joints
+    (``controller.features.key_joint_transforms``) over the window ``anchor + 5k`` (k = −6..6, clamped to the clip)
+    and its phase from ``phase_model``.
+
+    Returns:
+        ``(library, windows)``: a ``goal_library.GoalLibrary`` (row ``i`` is clip ``i``) and ``len(clips)`` windows.
+    """
+    rows, windows = [], []
+    for clip in clips:
+        scene = reach_scene(clip)
+        grid = _scene_grid(scene, config)
+        rows.append(goal_library.keyframe_row(clip, "item", grid, [scene.support, floor_sdf], config, "grasp"))
+        anchor = int(clip.meta["anchor_frame"])
+        positions, rotations = key_joint_transforms(clip)
+        frames = (anchor + WINDOW_OFFSETS).clamp(0, len(clip) - 1)
+        state = phase.clip_phase(phase_model, clip).state()[anchor]
+        windows.append(KeyframeWindow(positions[frames].double().numpy(), rotations[frames].double().numpy(),
+                                      state.double().numpy(), goal_frame(grid), int(clip.meta["seed"])))
+    return goal_library.build_goal_library(env_model, rows), windows
+
+
+class MatchedGoals(NamedTuple):
+    """The goals of ``B`` scenes and where they came from.
+
+    Attributes:
+        goal: ``controller.runtime.KeyJointGoal`` (positions (B, 13, 4, 3), rotations, phase (B, C, 3), hand).
+        rows: (B,) the matched library rows. distances: (B,) their §6.1 feature distances.
+        seeds: (B,) the matched clips' seeds.
+    """
+
+    goal: runtime.KeyJointGoal
+    rows: np.ndarray
+    distances: np.ndarray
+    seeds: np.ndarray
+
+
+@torch.no_grad()
+def matched_goals(scenes, library: GoalLibrary, model: env.EnvironmentAutoencoder, windows,
+                  config: EnvironmentConfig = EnvironmentConfig()) -> MatchedGoals:
+    """The goal of each scene by §6.1 matching: the nearest grasp keyframe for the scene's hand
+    (``goal_library.match_goal``, k = 1), its window and phase from ``windows`` (:func:`reach_library`'s).
+
+    The window is carried into the scene like ``match_goal``'s keyframe: from the matched clip's goal frame into
+    the scene's, then shifted so that the working wrist at the contact lies on the grasp point; the root's height
+    is set to 0 (it is the pelvis's projection on the ground).
+    """
+    scenes = list(scenes)
+    if not scenes or not all(isinstance(s, ReachScene) for s in scenes):
+        raise ValueError("scenes: expected a non-empty sequence of ReachScene (reach_scene of a clip)")
+    if len(windows) != len(library):
+        raise ValueError(f"windows: expected one window per library row ({len(library)}), got {len(windows)}")
+    rows = []
+    for s in scenes:
+        goal = env.HandGoal("item", s.item.category, s.grasp_point, _scene_grid(s, config), [s.support, floor_sdf],
+                            s.item)
+        match, = goal_library.match_goal(library, model, goal, s.hand, 1, config, "grasp")
+        window = windows[match.index]
+        move = goal_frame(goal.grid) @ np.linalg.inv(window.frame)  # the clip's world -> the scene
+        positions = window.positions @ move[:3, :3].T + move[:3, 3]
+        rotations = move[:3, :3] @ window.rotations
+        k = 2 + HANDS.index(s.hand)
+        positions = positions + (s.grasp_point - positions[_CENTRE, k])
+        positions[:, 0, 2] = 0.0
+        rows.append((positions, rotations, window.phase, HANDS.index(s.hand), match.index, match.distance, window.seed))
+    positions, rotations, states, hands, indices, distances, seeds = zip(*rows)
+    goal = runtime.KeyJointGoal(torch.as_tensor(np.stack(positions), dtype=torch.float32),
+                                torch.as_tensor(np.stack(rotations), dtype=torch.float32),
+                                torch.as_tensor(np.stack(states), dtype=torch.float32), torch.as_tensor(hands))
+    return MatchedGoals(goal, np.array(indices), np.array(distances), np.array(seeds))
+
+
+def reach_goals(model: network.ControllerNet, controller_config: network.ControllerConfig, clips,
+                environment: Optional[EnvironmentConfig] = None) -> MatchedGoals:
+    """:func:`matched_goals` of the scenes of reach-and-grasp ``clips`` in the library of the controller's training
+    reaches (:func:`reach_library` under ``model``'s PAE), with the trained §6.1 autoencoder of ``environment``
+    (``environment.trained_environment_autoencoder``; None: the ``toy`` preset)."""
+    environment = env.environment_config("toy") if environment is None else environment
+    env_model = env.trained_environment_autoencoder(environment).model
+    train = mocap.generate_dataset(controller_config.clips, seed=controller_config.seed, kinds=controller_config.kinds)
+    library, windows = reach_library([c for c in train if c.meta.get("kind") == "reach_grasp"], env_model,
+                                     model.phase_model, environment)
+    return matched_goals([reach_scene(c) for c in clips], library, env_model, windows, environment)
+
+
+def straight_approach_goal(goal, hand):
+    """The goal with the working wrist's approach (the window's samples before the keyframe) replaced by the
+    minimum-jerk path between the same two ends (``planner.baselines.minimum_jerk_plan`` without obstacles: the
+    cuRobo stand-in's straight move; rotations kept).
+
+    Args:
+        goal: ``controller.runtime.KeyJointGoal`` (positions (B, 13, 4, 3)).
+        hand: (B,) 0 left, 1 right.
+    Returns:
+        a new ``controller.runtime.KeyJointGoal``.
+    """
+    positions = goal.positions.clone()
+    for b in range(positions.shape[0]):
+        k = 2 + int(hand[b])
+        path = baselines.minimum_jerk_plan(positions[b, 0, k].double().numpy(),
+                                           positions[b, _CENTRE, k].double().numpy(), _CENTRE + 1)
+        positions[b, :_CENTRE + 1, k] = torch.as_tensor(path, dtype=positions.dtype)
+    return goal._replace(positions=positions)
+
+
+class _Joints:
+    """A bare ``(joints, fps)`` motion for ``controller.measures.motion_measures``."""
+
+    def __init__(self, joints, fps):
+        self.joints, self.fps = joints, fps
+
+
+def table4_runs(controller_config: network.ControllerConfig, *, clips: int = 12, after: int = 15, seed: int = 0,
+                environment: Optional[EnvironmentConfig] = None) -> dict:
+    """Table 4's rows on ``clips`` unseen reach-and-grasp scenes (the module's algorithm box), run once and then
+    loaded from the cache.
+
+    Args:
+        controller_config: the trained controller's (``network.trained_controller``).
+        after: frames after each held-out clip's grasp frame. seed: the held-out clips are ``world.mocap``'s with
+            the seed ``10 000 + seed``.
+        environment: the §6.1 autoencoder's configuration (None: the ``toy`` preset).
+    Measures (``controller.measures.motion_measures``, each scene cut at its own ``anchor + after``; the working
+    wrist's RMS curvature over frames ``[0, anchor]``): means over scenes (sliding over those with a planted foot,
+    ``"planted clips"``); the Fréchet distance pools every scene's 2 s windows of a row against those of the
+    controller's training clips (the ``"Dataset"`` row's: the held-out clips' own, a floor). ``reach`` is the
+    working wrist's closest approach to the grasp point (metres).
+
+    Returns:
+        ``{"rows": {row: {"Unsmth.", "Slid.", "FD", "EE RMSC", "planted clips", "per clip" {measure: (clips,)},
+        "reach" (clips,), "joints" [(T_i, 22, 3)]}}, "hands" (clips,), "anchors" (clips,), "matched rows",
+        "matched seeds", "match distances", "test seeds" (clips,), "goal phase" (clips, C, 3) the matched one,
+        "amplitude max", "seconds" (per row, the rollout's wall time), "steps"}``.
+    """
+    if isinstance(clips, bool) or not isinstance(clips, int) or clips < 1:
+        raise ValueError(f"clips: expected a positive int, got {clips!r}")
+    if isinstance(after, bool) or not isinstance(after, int) or after < 0:
+        raise ValueError(f"after: expected an int >= 0 (frames after the grasp), got {after!r}")
+    environment = env.environment_config("toy") if environment is None else environment
+
+    def build():
+        model = network.trained_controller(controller_config).model
+        test = mocap.generate_dataset(clips, seed=10_000 + int(seed), kinds=("reach_grasp",))
+        matched = reach_goals(model, controller_config, test, environment)
+        goal = matched.goal
+        train = mocap.generate_dataset(controller_config.clips, seed=controller_config.seed,
+                                       kinds=controller_config.kinds)  # the controller's training clips
+        anchors = np.array([int(c.meta["anchor_frame"]) for c in test])
+        ends = np.minimum(anchors + after, [len(c) - 1 for c in test])
+        hands = goal.hand.numpy()
+        reference = np.concatenate([pose_window_features(c) for c in train])
+        state = runtime.toward_goal(runtime.initial_state(model, test), goal)  # the start: each clip's first frame
+        frames = int(ends.max())
+        first = torch.stack([c.joints[0].float() for c in test])  # (B, 22, 3) frame 0, the start
+        target = goal.positions[torch.arange(len(test)), _CENTRE, 2 + goal.hand].double().numpy()  # the grasp points
+        rows, seconds = {}, {}
+
+        def measure(motions):
+            per = [motion_measures(m, None, [(0, int(a) + 1)], ("left", "right")[h])
+                   for m, a, h in zip(motions, anchors, hands)]
+            out = {k: float(np.nanmean([p[k] for p in per])) for k in ("Unsmth.", "Slid.", "EE RMSC")}
+            out["per clip"] = {k: np.array([p[k] for p in per]) for k in ("Unsmth.", "Slid.", "EE RMSC")}
+            out["planted clips"] = int(np.sum(np.isfinite([p["Slid."] for p in per])))
+            out["FD"] = float(metrics.frechet_distance(np.concatenate([pose_window_features(m) for m in motions]),
+                                                       reference))
+            return out
+
+        for row in TABLE4_ROWS:
+            g = straight_approach_goal(goal, hands) if row == "w/ KF + cuRobo" else goal
+            clock = time.perf_counter()
+            run = runtime.rollout(model, state, g, frames, _ROW_VARIANT[row], controller_config.blend_radius)
+            seconds[row] = time.perf_counter() - clock
+            # frame 0 is the start; step i gives frame i + 1
+            joints = torch.cat([first[None], run.joints], dim=0).double().numpy()  # (frames + 1, B, 22, 3)
+            motions = [_Joints(joints[:e + 1, b], FPS) for b, e in enumerate(ends)]
+            rows[row] = measure(motions)
+            rows[row]["reach"] = np.array([np.linalg.norm(joints[:e + 1, b, WRIST_JOINTS[h]] - target[b], axis=-1).min()
+                                           for b, (e, h) in enumerate(zip(ends, hands))])
+            rows[row]["joints"] = [m.joints for m in motions]
+        dataset = [_Joints(c.joints[:e + 1].double().numpy(), FPS) for c, e in zip(test, ends)]
+        rows["Dataset"] = measure(dataset)
+        rows["Dataset"]["reach"] = np.array([np.linalg.norm(c.joints[:e + 1, WRIST_JOINTS[h]].double().numpy() - t,
+                                                            axis=-1).min()
+                                             for c, e, h, t in zip(test, ends, hands, target)])
+        rows["Dataset"]["joints"] = [m.joints for m in dataset]
+        return {"rows": rows, "hands": hands, "anchors": anchors, "matched rows": matched.rows,
+                "matched seeds": matched.seeds, "match distances": matched.distances,
+                "test seeds": np.array([int(c.meta["seed"]) for c in test]), "goal phase": goal.phase.double().numpy(),
+                "amplitude max": float(model.phase_amplitude_max), "seconds": seconds, "steps": frames}
+
+    key = {"controller": dataclasses.asdict(controller_config), "clips": clips, "after": after, "seed": int(seed),
+           "environment": dataclasses.asdict(environment)}
+    return load_or_build("choice_table4", key, build, code=(sys.modules[__name__],))
