@@ -8,6 +8,7 @@ from hoi_tutorial.choice.controller import phase
 from hoi_tutorial.choice.controller.features import WINDOW, WINDOW_OFFSETS, key_joint_transforms
 from hoi_tutorial.choice.controller.runtime import KeyJointGoal
 from hoi_tutorial.choice.pick_and_place import environment, table4
+from hoi_tutorial.choice.planner import interactions, intp
 from hoi_tutorial.world import mocap
 
 pytestmark = pytest.mark.usefixtures("one_cpu_thread", "module_cache")
@@ -83,6 +84,33 @@ def test_errors_name_what_was_expected(tiny):
         table4.matched_goals([table4.reach_scene(test[0])], library, model, windows[:1], config)
     with pytest.raises(ValueError, match="clips: expected a positive int"):
         table4.table4_runs(None, clips=0)
+
+
+def test_the_planned_approach_runs_from_the_window_start_to_the_grasp_point(tiny):
+    config, model, _, library, _, windows, test = tiny
+    data = interactions.planner_data_config("toy", n_clips=2, n_test_clips=1)
+    planner_config = intp.planner_config("toy", width=48, latent=8, steps=200, batch_size=4, fit_steps=20)
+    planner = table4.trained_approach_planner(data, planner_config)
+    scenes = [table4.reach_scene(c) for c in test]
+    matched = table4.matched_goals(scenes, library, model, windows, config)
+    planned, plans = table4.planned_approach_goal(matched.goal, scenes, planner, seed=0)
+    for b, (scene, plan) in enumerate(zip(scenes, plans)):
+        k = 2 + int(matched.goal.hand[b])
+        if plan is None:  # no path found: the matched approach is kept as it was
+            assert torch.equal(planned.positions[b], matched.goal.positions[b])
+            continue
+        # from the window's first sample (the wrist, where the walk to x_s begins) to the grasp point (the contact)
+        torch.testing.assert_close(planned.positions[b, 0, k], matched.goal.positions[b, 0, k])
+        np.testing.assert_allclose(planned.positions[b, CENTRE, k].numpy(), scene.grasp_point, atol=1e-4)
+        assert np.allclose(plan.positions[-1], scene.grasp_point, atol=1e-6)
+        # only the working wrist's approach changes
+        others = [j for j in range(4) if j != k]
+        assert torch.equal(planned.positions[b][:, others], matched.goal.positions[b][:, others])
+        assert torch.equal(planned.positions[b, CENTRE + 1:], matched.goal.positions[b, CENTRE + 1:])
+        assert torch.equal(planned.rotations, matched.goal.rotations)
+    assert any(p is not None for p in plans)
+    with pytest.raises(ValueError, match="scenes: expected one per goal"):
+        table4.planned_approach_goal(matched.goal, scenes[:1], planner)
 
 
 def test_straight_approach_keeps_the_ends_and_is_straight():

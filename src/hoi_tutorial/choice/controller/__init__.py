@@ -67,8 +67,8 @@ Choices the paper does not state, ours:
 Measured at toy (one CPU thread): 48 clips, about 8 400 frames, 2400 steps (the last 400 unrolled over 6 frames)
 in 51 / 54 / 52 s with seeds 0 / 1 / 2. On 12 unseen reaches the working wrist comes within a median 0.13 / 0.22 /
 0.31 m of its grasp with the Kalman goal phase, 0.08 / 0.17 / 0.20 m without a goal phase (Table 4's runs when
-their goals were the test clips' own keyframes; with goals matched in the library, ``pick_and_place.table4``,
-0.11 / 0.27 / 0.36 m with the Kalman goal phase and 0.10 / 0.32 / 0.38 m without); 3000 steps (600 unrolled) took about 70 s for Kalman medians of 0.13 / 0.31 / 0.38 m.
+their goals were the test clips' own keyframes; with goals matched in the library and approaches planned by §4,
+``pick_and_place.table4``, 0.13 / 0.23 / 0.37 m with the Kalman goal phase and 0.10 / 0.25 / 0.37 m without); 3000 steps (600 unrolled) took about 70 s for Kalman medians of 0.13 / 0.31 / 0.38 m.
 Before the hip's and wrists' trajectories were inputs, those medians were 0.37 / 0.40 / 0.14 m, and with seed 2 some
 characters blew up (unsmoothness 3 346 cm/s², against 156 now). Trained on 16 clips of each of
 ``features.CLIP_KINDS`` instead (about as many frames, 2400 steps), the door wrist of

@@ -16,21 +16,26 @@ The algorithm box, as this module runs it (``B`` scenes):
      wrist lies on the grasp point (the root kept on the ground);
    - the matched goal phase: that clip's PAE phase ``[S, A, F]`` at its grasp, precomputed (§5.2: "the
      corresponding phase of each frames can be precomputed by the PAE").
-3. **Rows** (:func:`table4_runs`): each drives all scenes in one batch from its start for ``anchor + after``
+3. **The approach** (§4, :func:`planned_approach_goal`): the working wrist's samples up to the keyframe are
+   replaced by the implicit planner's plan (chapter 16's, ``intp.plan_trajectory``) from the window's first
+   sample to the grasp point among the scene's obstacles — CHOICE's ``τ_plan``.
+   **Rows** (:func:`table4_runs`): each drives all scenes in one batch from its start for ``anchor + after``
    frames (``anchor`` the held-out clip's grasp frame, so that every row is measured over the recording's span):
    ``"w/o goal phase"``, ``"w/ matched goal"``, ``"w/ predicted goal"`` and ``"w/ KF goal"`` are
-   ``controller.runtime.rollout``'s four goal-phase sources; ``"w/ KF + cuRobo"`` is the Kalman one with the
-   working wrist's approach replaced by the straight minimum-jerk path (:func:`straight_approach_goal`).
-   Every row bounds its goal phase by the same ``A_max``, the largest amplitude of the controller's training
-   frames (``controller.runtime.phase_filter_config``).
+   ``controller.runtime.rollout``'s four goal-phase sources on the planned goal; ``"w/ KF + cuRobo"`` is the
+   Kalman one with the approach the straight minimum-jerk path between the same two ends instead
+   (:func:`straight_approach_goal`). Every row bounds its goal phase by the same ``A_max``, the largest amplitude
+   of the controller's training frames (``controller.runtime.phase_filter_config``).
 4. **Measures** (``controller.measures``): unsmoothness, sliding, the Fréchet distance of 2 s pose windows
    against the controller's training clips, the working wrist's RMS curvature on its approach.
 
 Ours, where CHOICE does not say or where the toy differs:
 
 - The nearest keyframe (``k = 1``) gives both the window and the phase.
-- **The working wrist's approach** in the goal window is the matched clip's (CHOICE's ``τ_prior`` carried into
-  the scene); CHOICE re-plans it around the scene with §4's planner (``τ_plan``, Eq. 12). Not done here.
+- **The plan on the window**: the planned path (with its walk from the wrist to ``x_s``) is laid on the window's
+  seven approach samples evenly by frame, so the window keeps the matched clip's timing; the rotations stay the
+  matched clip's (CHOICE transfers the prior's orientations onto the plan, Eq. 12). Where the planner finds no
+  path, the scene keeps the matched approach (``"planned"`` says where).
 - The library is the controller's training reaches (walk up, reach, grasp), not ``goal_library.goal_keyframes``'
   clips, which reach from where they stand: a goal window holding no walk is one the toy controller never saw
   in training, and with it the wrists stopped about 0.8 m from their grasps (median, seed 1).
@@ -54,14 +59,16 @@ from ...world.objects import object_from_description
 from ..controller import network, phase, runtime
 from ..controller.features import WINDOW, WINDOW_OFFSETS, WRIST_JOINTS, key_joint_transforms
 from ..controller.measures import motion_measures, pose_window_features
-from ..planner import baselines, fields
+from ..planner import baselines, fields, interactions, intp
+from ..planner.interactions import condition_vector
 from . import environment as env
 from . import goal_library
 from .environment import HANDS, EnvironmentConfig, floor_sdf, goal_frame
 from .goal_library import GoalLibrary
 
 __all__ = ["TABLE4_ROWS", "ReachScene", "reach_scene", "KeyframeWindow", "reach_library", "MatchedGoals",
-           "matched_goals", "reach_goals", "straight_approach_goal", "table4_runs"]
+           "matched_goals", "reach_goals", "ApproachPlanner",
+           "trained_approach_planner", "planned_approach_goal", "straight_approach_goal", "table4_runs"]
 
 TABLE4_ROWS = ("w/ KF + cuRobo", "w/o goal phase", "w/ matched goal", "w/ predicted goal", "w/ KF goal")
 _ROW_VARIANT = {"w/ KF + cuRobo": "kalman", "w/o goal phase": "none", "w/ matched goal": "matched",
@@ -207,6 +214,61 @@ def reach_goals(model: network.ControllerNet, controller_config: network.Control
     return matched_goals([reach_scene(c) for c in clips], library, env_model, windows, environment)
 
 
+class ApproachPlanner(NamedTuple):
+    """§4's implicit planner as Table 4 uses it: the trained auto-decoder, its configuration, the interactions it
+    was trained on (its priors) and the field configuration of its grids."""
+
+    model: intp.AutoDecoder
+    config: intp.PlannerConfig
+    dataset: interactions.InteractionSet
+    field: fields.FieldConfig
+
+
+def trained_approach_planner(data_config: interactions.PlannerDataConfig,
+                             config: intp.PlannerConfig) -> ApproachPlanner:
+    """The planner of chapter 16 (``intp.trained_planner``, cached) with its training interactions."""
+    return ApproachPlanner(intp.trained_planner(data_config, config).model, config,
+                           interactions.interaction_set(data_config, "train"), data_config.field)
+
+
+def planned_approach_goal(goal: runtime.KeyJointGoal, scenes, planner: ApproachPlanner, *, seed: int = 0):
+    """The goal with the working wrist's approach (the window's samples up to the keyframe) replaced by §4's plan
+    (``intp.plan_trajectory``: the matched prior, the latent fit of Eq. 9, ``x_s`` of Eq. 11, Eq. 10's descent)
+    from the window's first sample to the scene's grasp point, among the scene's obstacles (the support).
+
+    The plan (walked from the wrist to ``x_s`` first, ``intp.WristPlan.from_wrist``) is laid on the window's
+    samples by its frame index: sample ``j`` of ``0..6`` takes the plan's frame ``j / 6`` of the way along (ours:
+    the window keeps the matched clip's timing, the plan gives the way); rotations stay the matched clip's.
+
+    Returns:
+        ``(goal, plans)``: a new ``controller.runtime.KeyJointGoal`` and the ``intp.WristPlan`` of each scene (None
+        where the planner found no path: that scene keeps the matched approach).
+    """
+    scenes = list(scenes)
+    if len(scenes) != goal.positions.shape[0]:
+        raise ValueError(f"scenes: expected one per goal ({goal.positions.shape[0]}), got {len(scenes)}")
+    positions = goal.positions.clone()
+    generator = torch.Generator().manual_seed(int(seed))
+    plans = []
+    for b, scene in enumerate(scenes):
+        k = 2 + int(goal.hand[b])
+        grid = fields.object_grid(scene.item, planner.field, yaw=env.object_yaw(scene.support))
+        scene_fields = fields.scene_fields(grid, scene.item, [scene.support], None, FPS, planner.field)
+        condition = condition_vector(float(scene.grasp_point[2]), scene.hand, "grasp", "approach")
+        wrist = positions[b, 0, k].double().numpy()
+        try:
+            plan = intp.plan_trajectory(planner.model, planner.config, planner.dataset, scene_fields, condition,
+                                        wrist, scene.grasp_point, generator=generator)
+        except ValueError:  # no path found (the latent fit gave no finite time of arrival): the matched approach
+            plans.append(None)
+            continue
+        path = plan.from_wrist(wrist, FPS)  # (K, 3), the wrist first, the contact last
+        index = np.round(np.linspace(0.0, 1.0, _CENTRE + 1) * (len(path) - 1)).astype(int)
+        positions[b, :_CENTRE + 1, k] = torch.as_tensor(path[index], dtype=positions.dtype)
+        plans.append(plan)
+    return goal._replace(positions=positions), plans
+
+
 def straight_approach_goal(goal, hand):
     """The goal with the working wrist's approach (the window's samples before the keyframe) replaced by the
     minimum-jerk path between the same two ends (``planner.baselines.minimum_jerk_plan`` without obstacles: the
@@ -235,7 +297,9 @@ class _Joints:
 
 
 def table4_runs(controller_config: network.ControllerConfig, *, clips: int = 12, after: int = 15, seed: int = 0,
-                environment: Optional[EnvironmentConfig] = None) -> dict:
+                environment: Optional[EnvironmentConfig] = None,
+                planner_data: Optional[interactions.PlannerDataConfig] = None,
+                planner_config: Optional[intp.PlannerConfig] = None) -> dict:
     """Table 4's rows on ``clips`` unseen reach-and-grasp scenes (the module's algorithm box), run once and then
     loaded from the cache.
 
@@ -244,6 +308,8 @@ def table4_runs(controller_config: network.ControllerConfig, *, clips: int = 12,
         after: frames after each held-out clip's grasp frame. seed: the held-out clips are ``world.mocap``'s with
             the seed ``10 000 + seed``.
         environment: the §6.1 autoencoder's configuration (None: the ``toy`` preset).
+        planner_data, planner_config: §4's planner (:func:`trained_approach_planner`; None: the ``toy`` presets
+            seeded like the controller).
     Measures (``controller.measures.motion_measures``, each scene cut at its own ``anchor + after``; the working
     wrist's RMS curvature over frames ``[0, anchor]``): means over scenes (sliding over those with a planted foot,
     ``"planted clips"``); the Fréchet distance pools every scene's 2 s windows of a row against those of the
@@ -254,19 +320,27 @@ def table4_runs(controller_config: network.ControllerConfig, *, clips: int = 12,
         ``{"rows": {row: {"Unsmth.", "Slid.", "FD", "EE RMSC", "planted clips", "per clip" {measure: (clips,)},
         "reach" (clips,), "joints" [(T_i, 22, 3)]}}, "hands" (clips,), "anchors" (clips,), "matched rows",
         "matched seeds", "match distances", "test seeds" (clips,), "goal phase" (clips, C, 3) the matched one,
-        "amplitude max", "seconds" (per row, the rollout's wall time), "steps"}``.
+        "amplitude max", "planned" (clips,) bool (the planner found a path), "planning seconds", "seconds" (per
+        row, the rollout's wall time), "steps"}``.
     """
     if isinstance(clips, bool) or not isinstance(clips, int) or clips < 1:
         raise ValueError(f"clips: expected a positive int, got {clips!r}")
     if isinstance(after, bool) or not isinstance(after, int) or after < 0:
         raise ValueError(f"after: expected an int >= 0 (frames after the grasp), got {after!r}")
     environment = env.environment_config("toy") if environment is None else environment
+    if planner_data is None:
+        planner_data = interactions.planner_data_config("toy", seed=controller_config.seed)
+    if planner_config is None:
+        planner_config = intp.planner_config("toy", seed=controller_config.seed)
 
     def build():
         model = network.trained_controller(controller_config).model
         test = mocap.generate_dataset(clips, seed=10_000 + int(seed), kinds=("reach_grasp",))
         matched = reach_goals(model, controller_config, test, environment)
-        goal = matched.goal
+        planner = trained_approach_planner(planner_data, planner_config)
+        clock = time.perf_counter()
+        goal, plans = planned_approach_goal(matched.goal, [reach_scene(c) for c in test], planner, seed=int(seed))
+        planning_seconds = time.perf_counter() - clock
         train = mocap.generate_dataset(controller_config.clips, seed=controller_config.seed,
                                        kinds=controller_config.kinds)  # the controller's training clips
         anchors = np.array([int(c.meta["anchor_frame"]) for c in test])
@@ -290,7 +364,7 @@ def table4_runs(controller_config: network.ControllerConfig, *, clips: int = 12,
             return out
 
         for row in TABLE4_ROWS:
-            g = straight_approach_goal(goal, hands) if row == "w/ KF + cuRobo" else goal
+            g = straight_approach_goal(matched.goal, hands) if row == "w/ KF + cuRobo" else goal
             clock = time.perf_counter()
             run = runtime.rollout(model, state, g, frames, _ROW_VARIANT[row], controller_config.blend_radius)
             seconds[row] = time.perf_counter() - clock
@@ -310,8 +384,10 @@ def table4_runs(controller_config: network.ControllerConfig, *, clips: int = 12,
         return {"rows": rows, "hands": hands, "anchors": anchors, "matched rows": matched.rows,
                 "matched seeds": matched.seeds, "match distances": matched.distances,
                 "test seeds": np.array([int(c.meta["seed"]) for c in test]), "goal phase": goal.phase.double().numpy(),
-                "amplitude max": float(model.phase_amplitude_max), "seconds": seconds, "steps": frames}
+                "amplitude max": float(model.phase_amplitude_max), "planned": np.array([p is not None for p in plans]),
+                "planning seconds": planning_seconds, "seconds": seconds, "steps": frames}
 
     key = {"controller": dataclasses.asdict(controller_config), "clips": clips, "after": after, "seed": int(seed),
-           "environment": dataclasses.asdict(environment)}
+           "environment": dataclasses.asdict(environment), "planner data": dataclasses.asdict(planner_data),
+           "planner": dataclasses.asdict(planner_config)}
     return load_or_build("choice_table4", key, build, code=(sys.modules[__name__],))
