@@ -122,9 +122,9 @@ def test_the_variants_differ_only_in_the_goal_phase(trained, start):
 def test_the_deviation_weighs_with_the_rollouts_filter_config(trained, start):
     # Eq. 22's weights come from the filter_config passed in: both doubled, c doubles (exactly: powers of two)
     state, goal = start
-    default = kalman.PhaseFilterConfig()
-    doubled = kalman.PhaseFilterConfig(rotation_weight=2 * default.rotation_weight,
-                                       body_width=kalman.mean_body_width() / 2)
+    default = runtime.phase_filter_config(trained.model)  # the rollout's own (A_max from the data)
+    doubled = runtime.phase_filter_config(trained.model, rotation_weight=2 * default.rotation_weight,
+                                          body_width=kalman.mean_body_width() / 2)
     run = runtime.rollout(trained.model, state, goal, 3, "none")
     assert bool((run.deviation > 0).all())
     assert torch.equal(runtime.rollout(trained.model, state, goal, 3, "none", filter_config=doubled).deviation,
@@ -303,3 +303,26 @@ def test_every_goal_phase_source_is_bounded_by_the_same_amplitude(trained, start
         run = runtime.rollout(model, state, loud, 1, variant)
         fed = features.phase_state(run.goal_phase[0])  # (B, C, 3) [S, A, F] fed at the first step
         assert float(fed[..., 1].max()) == pytest.approx(data.amplitude_max, rel=1e-5), variant
+
+
+def test_the_phase_moves_by_eqs_15_and_16(trained, start):
+    model = trained.model
+    state, goal = start
+    config = runtime.phase_filter_config(model)
+    fed = features.goal_phase_features(goal.phase)
+    nxt, out = runtime.controller_step(model, state, goal, fed)
+    x = features.phase_state(state.phase).double().numpy()
+    x_hat = features.phase_state(out["network_phase"]).double().numpy()
+    # by hand: S advances by Δt F and moves β of the way to the network's; A and F are the network's, in bounds
+    advanced = x[..., 0] + config.dt * x[..., 2]
+    S = kalman.wrap_phase(advanced + config.phase_blend * kalman.phase_difference(x_hat[..., 0], advanced))
+    got = features.phase_state(nxt.phase).double().numpy()
+    assert np.abs(kalman.phase_difference(got[..., 0], S)).max() < 1e-4
+    np.testing.assert_allclose(got[..., 1], np.clip(x_hat[..., 1], 0, config.amplitude_max), atol=1e-4)
+    np.testing.assert_allclose(got[..., 2], np.clip(x_hat[..., 2], 0, config.frequency_max), atol=1e-4)
+    # β = 1 gives the network's phase back; the paper's β = 0.5 does not
+    one, _ = runtime.controller_step(model, state, goal, fed,
+                                     filter_config=runtime.phase_filter_config(model, phase_blend=1.0))
+    assert np.abs(kalman.phase_difference(features.phase_state(one.phase)[..., 0].double().numpy(),
+                                          x_hat[..., 0])).max() < 1e-4
+    assert np.abs(kalman.phase_difference(got[..., 0], x_hat[..., 0])).max() > 1e-3

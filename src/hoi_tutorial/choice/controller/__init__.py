@@ -31,7 +31,9 @@ root / hip / left wrist / right wrist, ``w = 13`` samples over 2 s):
    that grows as the working wrist nears its goal; the blended trajectories are the next step's inputs (the
    root's as its future root trajectory, the hip's and wrists' as theirs: Fig. 4, "our bi-directional control
    blends the key-joint transformation prediction", fed back as NSM feeds back its control signals).
-   ``c = Dev(G T^inv, T^ego)`` (Eq. 22) is returned for the Kalman filter.
+   ``c = Dev(G T^inv, T^ego)`` (Eq. 22) is returned for the Kalman filter. The phase moves by Eqs. 15–16
+   (:func:`runtime.phase_update`): ``X_{t+Δt} = A X_t + B U``, the phase advanced by its frequency and moved
+   ``β = 0.5`` of the way to the network's, the amplitude and frequency the network's, all within bounds.
 6. **Goal phase sources** (:func:`runtime.rollout`, Table 4): ``"none"`` (zeros), ``"matched"`` (the matched
    clip's phase at its keyframe, held), ``"predicted"`` (the network's own ``P̂_g`` fed back), ``"kalman"``
    (``kalman.filter_step`` on the network's ``P̂_g`` with ``R_pred = c Q`` and the matched phase with
@@ -58,6 +60,9 @@ Choices the paper does not state, ours:
 - Training is teacher-forced, then, for its last ``unroll_steps``, unrolled over ``unroll`` frames on the
   network's own pose, phase and future root trajectory (:func:`network.train_controller`); inputs and outputs
   are standardised with the training data's mean and std; the loss is the mean squared error in those units.
+- The network predicts the next phase itself (as DeepPhase's controllers do); Eq. 17's control ``U`` is the update
+  that takes ``A X_t`` to that prediction (the phase's on the circle), so that ``β = 1`` would follow the network.
+  Training fits the network's prediction; Eqs. 15–16 act at run time only.
 - At run time each joint moves half-way from its previous position carried by the predicted velocity to the
   predicted position (``features.POSE_BLEND``, :func:`features.blended_pose`), as Starke et al.'s released
   controllers do.
@@ -68,7 +73,8 @@ Measured at toy (one CPU thread): 48 clips, about 8 400 frames, 2400 steps (the 
 in 51 / 54 / 52 s with seeds 0 / 1 / 2. On 12 unseen reaches the working wrist comes within a median 0.13 / 0.22 /
 0.31 m of its grasp with the Kalman goal phase, 0.08 / 0.17 / 0.20 m without a goal phase (Table 4's runs when
 their goals were the test clips' own keyframes; with goals matched in the library and approaches planned by §4,
-``pick_and_place.table4``, 0.13 / 0.23 / 0.37 m with the Kalman goal phase and 0.10 / 0.25 / 0.37 m without); 3000 steps (600 unrolled) took about 70 s for Kalman medians of 0.13 / 0.31 / 0.38 m.
+``pick_and_place.table4``, and the phase moved by Eqs. 15–16, 0.13 / 0.24 / 0.33 m with the Kalman goal phase and
+0.12 / 0.22 / 0.29 m without); 3000 steps (600 unrolled) took about 70 s for Kalman medians of 0.13 / 0.31 / 0.38 m.
 Before the hip's and wrists' trajectories were inputs, those medians were 0.37 / 0.40 / 0.14 m, and with seed 2 some
 characters blew up (unsmoothness 3 346 cm/s², against 156 now). Trained on 16 clips of each of
 ``features.CLIP_KINDS`` instead (about as many frames, 2400 steps), the door wrist of

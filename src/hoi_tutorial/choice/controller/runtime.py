@@ -1,10 +1,11 @@
-"""The controller at run time (CHOICE §5.1–5.2, Eqs. 14, 22, Algorithm 1; Table 4's goal-phase sources): steps 5 and
+"""The controller at run time (CHOICE §5.1–5.2, Eqs. 14–16, 22, Algorithm 1; Table 4's goal-phase sources): steps 5 and
 6 of the algorithm box in ``choice.controller``.
 
 A :class:`ControllerState` is one character's pose, root trajectory, phase and key-joint trajectories;
 :class:`KeyJointGoal` the four key joints over the goal's 2 s window and its phase. :func:`controller_step`
-runs the network once and blends ``G T^inv`` with ``T^ego`` (Eq. 14); :func:`rollout` steps a batch of
-characters with one of Table 4's goal-phase sources, the Kalman filter of ``kalman`` among them.
+runs the network once, moves the phase by Eqs. 15–16 (:func:`phase_update`) and blends ``G T^inv`` with ``T^ego``
+(Eq. 14); :func:`rollout` steps a batch of characters with one of Table 4's goal-phase sources, the Kalman filter
+of ``kalman`` among them.
 """
 from __future__ import annotations
 
@@ -26,7 +27,7 @@ from .features import (FUTURE_OFFSETS, KEY_JOINTS, PAST, SAMPLE_STEP, TRANSFORM,
 from .network import ControllerConfig, ControllerNet
 
 __all__ = ["ControllerState", "KeyJointGoal", "initial_state", "clip_goal", "toward_goal", "phase_filter_config",
-           "controller_step", "Rollout", "rollout"]
+           "phase_update", "controller_step", "Rollout", "rollout"]
 
 class ControllerState(NamedTuple):
     """The characters' state between two frames (``B`` characters).
@@ -168,7 +169,7 @@ def _check_step_inputs(model, state, goal, goal_phase):
 @torch.inference_mode()  # no autograd bookkeeping at all: about 15 % of a batch-1 step
 def controller_step(model: ControllerNet, state: ControllerState, goal: KeyJointGoal, goal_phase: torch.Tensor,
                     blend_radius: float = ControllerConfig.blend_radius,
-                    filter_config: kalman.PhaseFilterConfig = kalman.PhaseFilterConfig()):
+                    filter_config: Optional[kalman.PhaseFilterConfig] = None):
     """One frame of the controller for ``B`` characters.
 
     Args:
@@ -176,16 +177,37 @@ def controller_step(model: ControllerNet, state: ControllerState, goal: KeyJoint
         goal: their :class:`KeyJointGoal`.
         goal_phase: (B, 3C) the goal phase features fed to the network (Eq. 13 without noise; zeros for ``"none"``).
         blend_radius: metres; the weight of ``G T^inv`` is ``clip(1 − d / blend_radius, 0, 1)``.
-        filter_config: the weights of Eq. 22's deviation (``rotation_weight``, ``position_weight``).
+        filter_config: the weights of Eq. 22's deviation (``rotation_weight``, ``body_width``) and the phase
+            dynamics of Eqs. 15–16 (``dt``, ``phase_blend`` β, the bounds); None: :func:`phase_filter_config`.
     Returns:
         ``(state at t + 1, outputs)``; ``outputs``: ``joints`` (B, 22, 3) and ``wrist`` (B, 2, 3) world
         positions at ``t + 1``,
         ``ego`` / ``goal_centric`` / ``blended`` (B, 7, 4, 9) key-joint trajectories in the root frame of ``t``
         (``goal_centric`` mapped by Eq. 14), ``blend`` (B,), ``deviation`` (B,) ``c`` of Eq. 22,
+        ``network_phase`` (B, 3C) the network's predicted next phase (the state's is :func:`phase_update` of it),
         ``goal`` (B, 13, 4, 9) the goal estimate, ``goal_phase_state`` (B, C, 3) its ``[S, A, F]``.
     """
     _check_step_inputs(model, state, goal, goal_phase)
+    filter_config = phase_filter_config(model) if filter_config is None else filter_config
     return _step(model, state, goal, goal_phase, blend_radius, filter_config)
+
+
+def phase_update(current: torch.Tensor, predicted: torch.Tensor, config: kalman.PhaseFilterConfig) -> torch.Tensor:
+    """The next phase by Eqs. 15–16, ``X_{t+Δt} = A X_t + B U``, with ``U`` the update that takes ``A X_t`` to the
+    network's predicted phase (Eq. 17: the network's control): the phase advances by its frequency and moves a
+    fraction ``β`` (``config.phase_blend``) of the way to the predicted one on the circle; the amplitude and the
+    frequency are the predicted ones; all within bounds (``kalman.lds_step``). β = 1 gives the prediction back.
+
+    Args:
+        current, predicted: (B, 3C) phase features ``(A sin 2πS, A cos 2πS, F)`` (Eq. 13's, without noise).
+    Returns:
+        (B, 3C) the next phase features.
+    """
+    x, x_hat = (phase_state(f).double().numpy() for f in (current, predicted))  # (B, C, 3) [S, A, F]
+    advanced = x @ kalman.transition_matrix(config.dt).T  # A X_t
+    control = x_hat - advanced  # U with B's unit rows for A and F ...
+    control[..., kalman.PHASE] = kalman.phase_difference(x_hat[..., kalman.PHASE], advanced[..., kalman.PHASE])
+    return goal_phase_features(kalman.lds_step(x, control, config))  # ... and β on the phase's
 
 
 def _step(model, state, goal, goal_phase, blend_radius, filter_config):
@@ -227,12 +249,13 @@ def _step(model, state, goal, goal_phase, blend_radius, filter_config):
     history = torch.cat([state.history[:, 1:], _ground(origin, heading)[:, None]], dim=1)
     next_state = ControllerState(origin, heading, blend_pose_in_frame(state.pose, y[:, layout["pose"]], shift, turn),
                                  history, carried_root_trajectory(blended_p[:, :, 0], blended_r[:, :, 0], shift, turn),
-                                 y[:, layout["phase"]],
+                                 phase_update(state.phase, y[:, layout["phase"]], filter_config),
                                  carried_key_trajectories(blended_p[:, :, 1:], blended_r[:, :, 1:], shift, turn))
     pose = next_state.pose[:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3)
     world = pose @ new_frame.transpose(-1, -2) + origin[:, None]
     outputs = {"joints": world, "wrist": world[:, WRIST_JOINT_INDEX], "ego": ego, "goal_centric": goal_centric,
                "blended": blended, "blend": blend, "deviation": torch.as_tensor(deviation, dtype=torch.float32),
+               "network_phase": y[:, layout["phase"]],
                "goal": y[:, layout["goal"]].reshape(B, WINDOW, len(KEY_JOINTS), TRANSFORM),
                "goal_phase_state": phase_state(y[:, layout["goal_phase"]])}
     return next_state, outputs
