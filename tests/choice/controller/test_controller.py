@@ -326,3 +326,27 @@ def test_the_phase_moves_by_eqs_15_and_16(trained, start):
     assert np.abs(kalman.phase_difference(features.phase_state(one.phase)[..., 0].double().numpy(),
                                           x_hat[..., 0])).max() < 1e-4
     assert np.abs(kalman.phase_difference(got[..., 0], x_hat[..., 0])).max() > 1e-3
+
+
+def test_local_rotations_pose_the_clip_back_and_keep_every_bone_length():
+    from hoi_tutorial.world.features import root_frame
+    from hoi_tutorial.world.skeleton import PARENTS, bone_lengths, bone_offsets
+
+    clip = mocap.generate_dataset(1, seed=3, kinds=("reach_grasp",))[0]
+    frames = torch.arange(0, len(clip), 7)
+    origin, heading = root_frame(clip.joints)
+    frame = rotation_about_z(heading)[frames]
+    rotations = features.local_rotation_features(clip, frames, frame)
+    assert rotations.shape == (len(frames), 22 * 6)
+    local = ((clip.joints[frames] - origin[frames, None]) @ frame)  # Rᵀ p: the joints in the root frame
+    posed = features.pose_from_rotations(rotations, local[:, 0], bone_offsets(clip.betas))
+    torch.testing.assert_close(posed, local, atol=1e-5, rtol=0)  # the clip's own pose, back through FK
+    # any 6 numbers a network may write give a body whose bones have the character's lengths, exactly
+    noisy = rotations + torch.randn(rotations.shape, generator=torch.Generator().manual_seed(0))
+    body = features.pose_from_rotations(noisy, local[:, 0], bone_offsets(clip.betas))
+    lengths = (body[:, 1:] - body[:, list(PARENTS[1:])]).norm(dim=-1)
+    torch.testing.assert_close(lengths, bone_lengths(clip.betas)[1:].to(lengths.dtype).expand_as(lengths),
+                               atol=1e-5, rtol=0)
+    assert float((body - posed).norm(dim=-1).max()) > 0.05  # the noise did move the body
+    with pytest.raises(ValueError, match="rotations: expected shape"):
+        features.pose_from_rotations(rotations[:, :6], local[:, 0], bone_offsets(clip.betas))

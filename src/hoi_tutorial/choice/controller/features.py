@@ -25,7 +25,7 @@ __all__ = [
     "KEY_JOINTS", "CLIP_KINDS", "VARIANTS", "WINDOW", "SAMPLE_STEP", "WINDOW_OFFSETS", "FUTURE_OFFSETS", "PAST",
     "TRANSFORM", "POSE_BLEND", "PELVIS_JOINT", "WRIST_JOINTS", "WRIST_JOINT_INDEX",
     "key_joint_transforms", "in_frame", "encode_transform", "decode_transform", "goal_phase_features", "phase_state",
-    "io_layouts", "pose_features", "clip_features", "next_root_frame", "blended_pose", "blend_pose_in_frame",
+    "io_layouts", "pose_features", "local_rotation_features", "pose_from_rotations", "clip_features", "next_root_frame", "blended_pose", "blend_pose_in_frame",
     "next_root_trajectory", "carried_root_trajectory", "next_key_trajectories", "carried_key_trajectories",
     "wrapped_angle",
 ]
@@ -117,6 +117,31 @@ def pose_features(joints, velocities, origin, frame):
     local = torch.einsum("tji,tkj->tki", frame, joints - origin[:, None])
     velocity = torch.einsum("tji,tkj->tki", frame, velocities)
     return torch.cat([local.flatten(1), velocity.flatten(1)], dim=-1)
+
+
+def local_rotation_features(clip: Motion, frames, frame: torch.Tensor) -> torch.Tensor:
+    """(N, 22·6) the pose at ``frames`` (N,) as local joint rotations in 6D — the pelvis's relative to the root frame
+    ``frame`` (N, 3, 3) of each frame, every other joint's relative to its parent (``Motion.local_rotations``) — the
+    whole-body pose §5.1's controller outputs, as Starke et al.'s controllers write it.
+    :func:`pose_from_rotations` poses a body from it."""
+    frames = torch.as_tensor(frames)
+    check_shape(frame, (len(frames), 3, 3), "frame")
+    local = clip.local_rotations[frames].clone()
+    local[:, 0] = frame.to(local.dtype).transpose(-1, -2) @ local[:, 0]  # the pelvis seen from the root frame
+    return matrix_to_rotation_6d(local).flatten(1)
+
+
+def pose_from_rotations(rotations: torch.Tensor, pelvis: torch.Tensor, offsets: torch.Tensor) -> torch.Tensor:
+    """(B, 22, 3) joint positions, root frame: the body posed by forward kinematics (``world.kinematics``) from 6D
+    local rotations ``rotations`` (B, 22·6, :func:`local_rotation_features`' layout; any 6 numbers, Gram–Schmidt
+    makes rotations of them), the pelvis position ``pelvis`` (B, 3) in the root frame and the body's bone offsets
+    ``offsets`` (22, 3) or (B, 22, 3) (``world.skeleton.bone_offsets``). Every bone keeps its length."""
+    from ...world.kinematics import forward_kinematics
+
+    check_shape(rotations, (None, NUM_JOINTS * 6), "rotations")
+    check_shape(pelvis, (rotations.shape[0], 3), "pelvis")
+    local = rotation_6d_to_matrix(rotations.reshape(-1, NUM_JOINTS, 6))
+    return forward_kinematics(local, pelvis.to(local.dtype), offsets)[1]
 
 
 @torch.no_grad()
