@@ -15,6 +15,7 @@ import torch
 
 from ..._validate import check_shape
 from ...world.features import feature_layout, root_frame
+from ...world.kinematics import forward_kinematics
 from ...world.motion import FPS, Motion
 from ...world.rotations import matrix_to_rotation_6d, rotation_6d_to_matrix, rotation_about_z
 from ...world.skeleton import NUM_JOINTS, joint_index
@@ -25,7 +26,8 @@ __all__ = [
     "KEY_JOINTS", "CLIP_KINDS", "VARIANTS", "WINDOW", "SAMPLE_STEP", "WINDOW_OFFSETS", "FUTURE_OFFSETS", "PAST",
     "TRANSFORM", "POSE_BLEND", "PELVIS_JOINT", "WRIST_JOINTS", "WRIST_JOINT_INDEX",
     "key_joint_transforms", "in_frame", "encode_transform", "decode_transform", "goal_phase_features", "phase_state",
-    "io_layouts", "pose_features", "local_rotation_features", "pose_from_rotations", "clip_features", "next_root_frame", "blended_pose", "blend_pose_in_frame",
+    "io_layouts", "pose_features", "local_rotation_features", "pose_from_rotations", "clip_features",
+    "next_root_frame", "blended_pose", "blend_pose_in_frame",
     "next_root_trajectory", "carried_root_trajectory", "next_key_trajectories", "carried_key_trajectories",
     "wrapped_angle",
 ]
@@ -136,8 +138,6 @@ def pose_from_rotations(rotations: torch.Tensor, pelvis: torch.Tensor, offsets: 
     local rotations ``rotations`` (B, 22·6, :func:`local_rotation_features`' layout; any 6 numbers, Gram–Schmidt
     makes rotations of them), the pelvis position ``pelvis`` (B, 3) in the root frame and the body's bone offsets
     ``offsets`` (22, 3) or (B, 22, 3) (``world.skeleton.bone_offsets``). Every bone keeps its length."""
-    from ...world.kinematics import forward_kinematics
-
     check_shape(rotations, (None, NUM_JOINTS * 6), "rotations")
     check_shape(pelvis, (rotations.shape[0], 3), "pelvis")
     local = rotation_6d_to_matrix(rotations.reshape(-1, NUM_JOINTS, 6))

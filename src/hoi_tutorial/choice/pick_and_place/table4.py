@@ -121,9 +121,11 @@ class KeyframeWindow(NamedTuple):
     seed: int
 
 
-def _scene_grid(scene: ReachScene, config: EnvironmentConfig):
-    """The object-centric grid of a reach's goal: around the item, yawed like its support (as the library's)."""
-    return fields.object_grid(scene.item, config.field, yaw=env.object_yaw(scene.support))
+def _hand_goal(scene: ReachScene, config: EnvironmentConfig) -> env.HandGoal:
+    """The scene's §6.1 hand goal (``environment.object_goal``: the grid around the item, yawed like its support;
+    the environment the support and the floor; the contact the grasp point)."""
+    return env.object_goal(scene.item, scene.support, scene.item.category, [scene.support, floor_sdf], config,
+                           contact=scene.grasp_point)
 
 
 @torch.no_grad()
@@ -139,15 +141,14 @@ def reach_library(clips, env_model: env.EnvironmentAutoencoder, phase_model: pha
     """
     rows, windows = [], []
     for clip in clips:
-        scene = reach_scene(clip)
-        grid = _scene_grid(scene, config)
-        rows.append(goal_library.keyframe_row(clip, "item", grid, [scene.support, floor_sdf], config, "grasp"))
+        goal = _hand_goal(reach_scene(clip), config)
+        rows.append(goal_library.keyframe_row(clip, "item", goal.grid, goal.environment, config, "grasp"))
         anchor = int(clip.meta["anchor_frame"])
         positions, rotations = key_joint_transforms(clip)
         frames = (anchor + WINDOW_OFFSETS).clamp(0, len(clip) - 1)
         state = phase.clip_phase(phase_model, clip).state()[anchor]
         windows.append(KeyframeWindow(positions[frames].double().numpy(), rotations[frames].double().numpy(),
-                                      state.double().numpy(), goal_frame(grid), int(clip.meta["seed"])))
+                                      state.double().numpy(), goal_frame(goal.grid), int(clip.meta["seed"])))
     return goal_library.build_goal_library(env_model, rows), windows
 
 
@@ -183,8 +184,7 @@ def matched_goals(scenes, library: GoalLibrary, model: env.EnvironmentAutoencode
         raise ValueError(f"windows: expected one window per library row ({len(library)}), got {len(windows)}")
     rows = []
     for s in scenes:
-        goal = env.HandGoal("item", s.item.category, s.grasp_point, _scene_grid(s, config), [s.support, floor_sdf],
-                            s.item)
+        goal = _hand_goal(s, config)
         match, = goal_library.match_goal(library, model, goal, s.hand, 1, config, "grasp")
         window = windows[match.index]
         move = goal_frame(goal.grid) @ np.linalg.inv(window.frame)  # the clip's world -> the scene
