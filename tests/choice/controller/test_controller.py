@@ -350,3 +350,41 @@ def test_local_rotations_pose_the_clip_back_and_keep_every_bone_length():
     assert float((body - posed).norm(dim=-1).max()) > 0.05  # the noise did move the body
     with pytest.raises(ValueError, match="rotations: expected shape"):
         features.pose_from_rotations(rotations[:, :6], local[:, 0], bone_offsets(clip.betas))
+
+
+def test_the_controllers_bodies_keep_every_bone_length(trained, start, clips):
+    from hoi_tutorial.world.skeleton import PARENTS, bone_lengths
+
+    state, goal = start
+    run = runtime.rollout(trained.model, state, goal, 5, "kalman")
+    lengths = (run.joints[:, :, 1:] - run.joints[:, :, list(PARENTS[1:])]).norm(dim=-1)  # (frames, B, 21)
+    expected = torch.stack([bone_lengths(c.betas)[1:] for c in clips]).to(lengths.dtype)
+    torch.testing.assert_close(lengths, expected.expand_as(lengths), atol=1e-5, rtol=0)
+
+
+def test_the_gating_compares_key_joint_transformations_and_phases(trained):
+    """Fig. 4: the experts' weights move with the key joints now and at the goal and with the phases, and with
+    nothing else (the pose, the root trajectory, the rest of the goal window)."""
+    model = trained.model
+    layout = model.x_layout
+    x = model.x_mean + model.x_std * torch.randn(4, model.in_size, generator=torch.Generator().manual_seed(0))
+
+    @torch.no_grad()
+    def weights(inputs):
+        xn = (inputs - model.x_mean) / model.x_std
+        return model.net.gating(xn[:, model.gating_mask])
+
+    base = weights(x)
+    centre = layout["goal"].start + (features.WINDOW // 2) * len(features.KEY_JOINTS) * features.TRANSFORM
+    moved = {"the hip now": layout["keys"].start, "the goal keyframe's right wrist": centre + 3 * features.TRANSFORM,
+             "the goal phase": layout["goal_phase"].start, "the current phase": layout["phase"].start}
+    for name, index in moved.items():
+        changed = x.clone()
+        changed[:, index] += 5 * model.x_std[index]
+        assert (weights(changed) - base).abs().max() > 1e-4, name
+    still = {"the pose": layout["pose"].start, "the root trajectory": layout["trajectory"].start,
+             "the goal window's first sample": layout["goal"].start, "the hip a second ahead": layout["keys"].stop - 1}
+    for name, index in still.items():
+        changed = x.clone()
+        changed[:, index] += 5 * model.x_std[index]
+        torch.testing.assert_close(weights(changed), base, atol=0, rtol=0, msg=name)

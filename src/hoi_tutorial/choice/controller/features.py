@@ -108,7 +108,8 @@ def io_layouts(channels: int):
                ("goal", (WINDOW, len(KEY_JOINTS), TRANSFORM)), ("phase", 3 * channels), ("goal_phase", 3 * channels),
                ("keys", (len(FUTURE_OFFSETS), len(KEY_JOINTS) - 1, TRANSFORM)))
     y_parts = (("pose", 2 * NUM_JOINTS * 3), ("root_update", 3), ("phase", 3 * channels), ("ego", future),
-               ("inv", future), ("goal", (WINDOW, len(KEY_JOINTS), TRANSFORM)), ("goal_phase", 3 * channels))
+               ("inv", future), ("goal", (WINDOW, len(KEY_JOINTS), TRANSFORM)), ("goal_phase", 3 * channels),
+               ("rotations", NUM_JOINTS * 6))
     return feature_layout(x_parts), feature_layout(y_parts)
 
 
@@ -183,7 +184,8 @@ def clip_features(clip: Motion, pae: PhaseAutoencoder) -> tuple[torch.Tensor, to
     inv_p, inv_r = in_frame(positions[future], rotations[future], g_p[:, None], g_r[:, None])
     y = torch.cat([pose_features(joints[n], clip.joint_velocities()[n], origin[n], frame[n]), root_update, features[n],
                    window(future, o, f).flatten(1), encode_transform(inv_p, inv_r).flatten(1),
-                   window(at(goal_next[:, None] + WINDOW_OFFSETS), o, f).flatten(1), features[goal_next]], dim=-1)
+                   window(at(goal_next[:, None] + WINDOW_OFFSETS), o, f).flatten(1), features[goal_next],
+                   local_rotation_features(clip, n, frame[n])], dim=-1)
     return x.float(), y.float(), states
 
 

@@ -23,8 +23,8 @@ from ...nn.moe import MoEMLP
 from ...world import mocap
 from ...world.motion import FPS
 from . import features, phase
-from .features import (CLIP_KINDS, PAST, SAMPLE_STEP, clip_features, io_layouts, next_key_trajectories,
-                       next_root_trajectory)
+from .features import (CLIP_KINDS, KEY_JOINTS, PAST, SAMPLE_STEP, TRANSFORM, WINDOW, clip_features, io_layouts,
+                       next_key_trajectories, next_root_trajectory)
 from .phase import PhaseAutoencoder
 
 __all__ = ["ControllerConfig", "CONTROLLER_SCALES", "controller_config", "ControllerData", "controller_data",
@@ -150,8 +150,9 @@ def controller_data(config: ControllerConfig, pae: PhaseAutoencoder) -> Controll
 class ControllerNet(nn.Module):
     """The MoE controller of Fig. 4: ``X_t (B, in) -> Y_{t+1} (B, out)``.
 
-    The gating network sees the current and goal phase-manifold features ``A·(sin, cos)`` (standardised);
-    the main network ``nn.moe.MoEMLP`` sees the whole standardised input. Inputs and outputs are
+    The gating network compares the key joints' transformations and the phase, now and at the goal (Fig. 4): the
+    hip's and wrists' position and 6D rotation at ``t`` and the four key joints' at the goal keyframe, with the
+    current and goal phase-manifold features ``A·(sin, cos)`` (all standardised); the main network ``nn.moe.MoEMLP`` sees the whole standardised input. Inputs and outputs are
     standardised with buffers set from the training data. The trained PAE rides along, frozen, as
     ``phase_model`` (a rollout's first phase comes from it).
     """
@@ -162,8 +163,12 @@ class ControllerNet(nn.Module):
         (self.x_layout, self.in_size), (self.y_layout, self.out_size) = io_layouts(self.channels)
         C = self.channels
         gate = torch.zeros(self.in_size, dtype=torch.bool)
-        for name in ("phase", "goal_phase"):
+        for name in ("phase", "goal_phase"):  # the phase manifold A·(sin, cos), now and at the goal
             gate[self.x_layout[name].start:self.x_layout[name].start + 2 * C] = True
+        keys = self.x_layout["keys"].start  # the hip's and wrists' transformations now (the trajectories' k = 0)
+        gate[keys:keys + (len(KEY_JOINTS) - 1) * TRANSFORM] = True
+        goal = self.x_layout["goal"].start + (WINDOW // 2) * len(KEY_JOINTS) * TRANSFORM  # the four at the goal keyframe
+        gate[goal:goal + len(KEY_JOINTS) * TRANSFORM] = True
         self.register_buffer("gating_mask", gate, persistent=False)
         self.net = MoEMLP(self.in_size, hidden, self.out_size, n_experts, gating_in=int(gate.sum()),
                           gating_hidden=gating_hidden)

@@ -3,7 +3,8 @@
 
 A :class:`ControllerState` is one character's pose, root trajectory, phase and key-joint trajectories;
 :class:`KeyJointGoal` the four key joints over the goal's 2 s window and its phase. :func:`controller_step`
-runs the network once, moves the phase by Eqs. 15–16 (:func:`phase_update`) and blends ``G T^inv`` with ``T^ego``
+runs the network once, poses the whole body by forward kinematics from its predicted local rotations (every bone
+keeps its length), moves the phase by Eqs. 15–16 (:func:`phase_update`) and blends ``G T^inv`` with ``T^ego``
 (Eq. 14); :func:`rollout` steps a batch of characters with one of Table 4's goal-phase sources, the Kalman filter
 of ``kalman`` among them.
 """
@@ -18,12 +19,13 @@ from ..._validate import check_choice, check_finite, check_shape
 from ...world.features import root_frame
 from ...world.motion import FPS, Motion
 from ...world.rotations import rotation_about_z
-from ...world.skeleton import NUM_JOINTS
+from ...world.skeleton import NUM_JOINTS, bone_offsets
 from . import kalman, phase
-from .features import (FUTURE_OFFSETS, KEY_JOINTS, PAST, SAMPLE_STEP, TRANSFORM, VARIANTS, WINDOW, WINDOW_OFFSETS,
-                       WRIST_JOINT_INDEX, blend_pose_in_frame, carried_key_trajectories, carried_root_trajectory,
-                       decode_transform, encode_transform, goal_phase_features, in_frame, key_joint_transforms,
-                       next_root_frame, phase_state, pose_features, wrapped_angle)
+from .features import (FUTURE_OFFSETS, KEY_JOINTS, PAST, POSE_BLEND, SAMPLE_STEP, TRANSFORM, VARIANTS, WINDOW,
+                       WINDOW_OFFSETS, WRIST_JOINT_INDEX, blend_pose_in_frame, carried_key_trajectories,
+                       carried_root_trajectory, decode_transform, encode_transform, goal_phase_features, in_frame,
+                       key_joint_transforms, local_rotation_features, next_root_frame, phase_state, pose_features,
+                       pose_from_rotations, wrapped_angle)
 from .network import ControllerConfig, ControllerNet
 
 __all__ = ["ControllerState", "KeyJointGoal", "initial_state", "clip_goal", "toward_goal", "phase_filter_config",
@@ -41,6 +43,10 @@ class ControllerState(NamedTuple):
         phase: (B, 3C) the current phase features ``(A sin, A cos, F)``.
         keys: (B, 7, 3, 9) the hip's and wrists' trajectory ``t + 5k`` (k = 0..6) in the root frame: position
             and 6D rotation (the previous step's ego/goal-centric blend).
+        offsets: (B, 22, 3) the characters' bone offsets (``world.skeleton.bone_offsets``): forward kinematics
+            poses each body with its own bones.
+        rotations: (B, 22·6) the whole pose as local joint rotations in 6D (``features.local_rotation_features``:
+            the pelvis's in the root frame, every other joint's relative to its parent).
     """
 
     origin: torch.Tensor
@@ -50,6 +56,8 @@ class ControllerState(NamedTuple):
     future: torch.Tensor
     phase: torch.Tensor
     keys: torch.Tensor
+    offsets: torch.Tensor
+    rotations: torch.Tensor
 
 
 class KeyJointGoal(NamedTuple):
@@ -93,12 +101,14 @@ def initial_state(model: ControllerNet, clips, frame: int = 0) -> ControllerStat
         state = params.state()[frame]
         key_p, key_r = key_joint_transforms(clip)
         keys = encode_transform(*in_frame(key_p[frame, 1:], key_r[frame, 1:], origin[frame], f[frame]))  # (3, 9)
+        rotations = local_rotation_features(clip, [frame], f[frame:frame + 1])[0]
         rows.append((origin[frame], heading[frame], pose, _ground(origin[past], heading[past]),
-                     goal_phase_features(state), keys[None].expand(len(FUTURE_OFFSETS), -1, -1)))
-    origin, heading, pose, history, features, keys = (torch.stack(v).float() for v in zip(*rows))
+                     goal_phase_features(state), keys[None].expand(len(FUTURE_OFFSETS), -1, -1),
+                     bone_offsets(clip.betas), rotations))
+    origin, heading, pose, history, features, keys, offsets, rotations = (torch.stack(v).float() for v in zip(*rows))
     future = torch.zeros(len(clips), len(FUTURE_OFFSETS), 4)
     future[..., 3] = 1.0
-    return ControllerState(origin, heading, pose, history, future, features, keys)
+    return ControllerState(origin, heading, pose, history, future, features, keys, offsets, rotations)
 
 
 @torch.no_grad()
@@ -159,6 +169,8 @@ def _check_step_inputs(model, state, goal, goal_phase):
                                ("state.future", state.future, (B, len(FUTURE_OFFSETS), 4)),
                                ("state.phase", state.phase, (B, 3 * C)),
                                ("state.keys", state.keys, (B, len(FUTURE_OFFSETS), len(KEY_JOINTS) - 1, TRANSFORM)),
+                               ("state.offsets", state.offsets, (B, NUM_JOINTS, 3)),
+                               ("state.rotations", state.rotations, (B, NUM_JOINTS * 6)),
                                ("goal.positions", goal.positions, (B, WINDOW, len(KEY_JOINTS), 3)),
                                ("goal.rotations", goal.rotations, (B, WINDOW, len(KEY_JOINTS), 3, 3)),
                                ("goal.phase", goal.phase, (B, C, 3)), ("goal.hand", goal.hand, (B,)),
@@ -181,7 +193,8 @@ def controller_step(model: ControllerNet, state: ControllerState, goal: KeyJoint
             dynamics of Eqs. 15–16 (``dt``, ``phase_blend`` β, the bounds); None: :func:`phase_filter_config`.
     Returns:
         ``(state at t + 1, outputs)``; ``outputs``: ``joints`` (B, 22, 3) and ``wrist`` (B, 2, 3) world
-        positions at ``t + 1``,
+        positions at ``t + 1`` (the body posed by forward kinematics from the predicted rotations, blended half-way
+        from the previous frame's, with the pelvis where the predicted joint positions put it),
         ``ego`` / ``goal_centric`` / ``blended`` (B, 7, 4, 9) key-joint trajectories in the root frame of ``t``
         (``goal_centric`` mapped by Eq. 14), ``blend`` (B,), ``deviation`` (B,) ``c`` of Eq. 22,
         ``network_phase`` (B, 3C) the network's predicted next phase (the state's is :func:`phase_update` of it),
@@ -247,10 +260,21 @@ def _step(model, state, goal, goal_phase, blend_radius, filter_config):
     new_frame = rotation_about_z(heading)
     blended_p, blended_r = decode_transform(blended)
     history = torch.cat([state.history[:, 1:], _ground(origin, heading)[:, None]], dim=1)
-    next_state = ControllerState(origin, heading, blend_pose_in_frame(state.pose, y[:, layout["pose"]], shift, turn),
+    # the body posed by FK from the predicted local rotations (every bone keeps its length), the velocities predicted
+    predicted = y[:, layout["pose"]]
+    rotations = y[:, layout["rotations"]]
+    # half-way from the previous local rotations (6D; Gram–Schmidt in FK), as the positions were blended
+    previous = state.rotations.reshape(B, NUM_JOINTS, 2, 3).clone()
+    previous[:, 0] = previous[:, 0] @ turn  # the pelvis's columns seen from the next root frame: (Rᵀ c)ᵀ
+    rotations = (1 - POSE_BLEND) * previous.flatten(1) + POSE_BLEND * rotations
+    pelvis = blend_pose_in_frame(state.pose, predicted, shift, turn)[:, :3]  # the pelvis blended as before
+    joints_next = pose_from_rotations(rotations, pelvis, state.offsets)
+    pose_next = torch.cat([joints_next.flatten(1), predicted[:, NUM_JOINTS * 3:]], dim=-1)
+    next_state = ControllerState(origin, heading, pose_next,
                                  history, carried_root_trajectory(blended_p[:, :, 0], blended_r[:, :, 0], shift, turn),
                                  phase_update(state.phase, y[:, layout["phase"]], filter_config),
-                                 carried_key_trajectories(blended_p[:, :, 1:], blended_r[:, :, 1:], shift, turn))
+                                 carried_key_trajectories(blended_p[:, :, 1:], blended_r[:, :, 1:], shift, turn),
+                                 state.offsets, rotations)
     pose = next_state.pose[:, :NUM_JOINTS * 3].reshape(B, NUM_JOINTS, 3)
     world = pose @ new_frame.transpose(-1, -2) + origin[:, None]
     outputs = {"joints": world, "wrist": world[:, WRIST_JOINT_INDEX], "ego": ego, "goal_centric": goal_centric,
