@@ -619,6 +619,58 @@ def test_warm_cache_shares_the_queue_between_processes(isolated_cache):
     assert len(set(pids)) == 2, pids
 
 
+def _build_threads(name):
+    # A build that records how many torch threads it ran with, and in which process.
+    def build():
+        time.sleep(0.5)
+        return torch.tensor([torch.get_num_threads(), os.getpid()])
+
+    return load_or_build(name, {}, build, verbose=False)
+
+
+def test_warm_cache_builds_on_one_thread_in_every_process(isolated_cache):
+    import functools
+
+    from hoi_tutorial.infra import warm_cache
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        calls = [functools.partial(_build_threads, f"threads{i}") for i in range(4)]
+        warm_cache(calls, workers=2)
+        assert torch.get_num_threads() == 2  # restored after
+        built = [_build_threads(f"threads{i}").tolist() for i in range(4)]
+        assert os.getpid() in [pid for _, pid in built], built  # this process built some too ...
+        assert all(threads == 1 for threads, _ in built), built  # ... on one thread, as the workers did
+    finally:
+        torch.set_num_threads(before)
+
+
+def _build_talking(name):
+    # A one-second build that says what it does, and records which process made it.
+    def build():
+        print(f"{name}: building in process", os.getpid())
+        time.sleep(1.0)
+        return torch.tensor(os.getpid())
+
+    return load_or_build(name, {}, build, verbose=False)
+
+
+def test_warm_cache_shows_what_the_workers_print(isolated_cache, capsys):
+    import functools
+
+    from hoi_tutorial.infra import warm_cache
+
+    calls = [functools.partial(_build_talking, f"talk{i}") for i in range(4)]
+    warm_cache(calls, workers=2)
+    out = capsys.readouterr().out
+    by_worker = [i for i in range(4) if int(_build_talking(f"talk{i}")) != os.getpid()]
+    assert by_worker, "no build ran in a worker"
+    for i in range(4):  # a worker's lines reach this process's output, as this process's own do
+        assert f"talk{i}: building in process" in out, out
+    assert out.count("[worker] test_infra._build_talking done in") == len(by_worker), out
+
+
 def test_warm_cache_reraises_a_failed_build(isolated_cache):
     import functools
 

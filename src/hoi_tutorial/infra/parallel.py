@@ -12,10 +12,13 @@ from __future__ import annotations
 
 import collections
 import concurrent.futures
+import contextlib
+import io
 import multiprocessing
 import os
 import pickle
 import threading
+import time
 from typing import Callable, Optional, Sequence
 
 from .cache import NotCachedError, cache_only
@@ -31,12 +34,25 @@ def available_cores() -> int:
         return os.cpu_count() or 1
 
 
-def _run(call: Callable[[], object]) -> None:
-    # In the worker: one torch thread, and the return value stays here (only the cache matters).
+def _run(call: Callable[[], object]) -> tuple[str, float]:
+    # In the worker: one torch thread; the return value stays here (only the cache matters), and what the
+    # build prints goes back as text with its seconds: a worker's own output would reach the terminal that
+    # started the notebook's kernel, never the notebook.
     import torch
 
     torch.set_num_threads(1)
-    call()
+    text = io.StringIO()
+    start = time.perf_counter()
+    with contextlib.redirect_stdout(text), contextlib.redirect_stderr(text):
+        call()
+    return text.getvalue(), time.perf_counter() - start
+
+
+def _describe(call: Callable[[], object]) -> str:
+    """A build's name for progress lines: ``module.function`` of the call (of a partial's function)."""
+    function = getattr(call, "func", call)
+    module = getattr(function, "__module__", "") or ""
+    return f"{module.rsplit('.', 1)[-1]}.{getattr(function, '__name__', type(function).__name__)}".lstrip(".")
 
 
 def warm_cache(calls: Sequence[Callable[[], object]], workers: Optional[int] = None) -> None:
@@ -45,7 +61,9 @@ def warm_cache(calls: Sequence[Callable[[], object]], workers: Optional[int] = N
     Each call is first run here with :func:`~hoi_tutorial.infra.cache.cache_only`: if everything
     it needs is cached it just loads, and is done. The calls that would build something run in
     parallel, at most ``workers`` at a time: this process and ``workers - 1`` worker processes (a
-    fresh interpreter each) take the next missing call from one queue whenever they are free.
+    fresh interpreter each) take the next missing call from one queue whenever they are free. Each
+    runs torch on one thread while they build in parallel (this process too), so the cores are not
+    oversubscribed and a build's numbers do not depend on which process ran it.
 
     Args:
         calls: zero-argument callables that build (or load) cached artifacts, e.g.
@@ -100,11 +118,18 @@ def warm_cache(calls: Sequence[Callable[[], object]], workers: Optional[int] = N
     def feed(pool):
         # One thread per worker slot: hand the worker the next build, wait for it, repeat.
         while (call := next_call()) is not None:
+            print(f"[worker] {_describe(call)} ...", flush=True)
             try:
-                pool.submit(_run, call).result()
+                text, seconds = pool.submit(_run, call).result()
             except BaseException as exc:  # noqa: BLE001 - re-raised in the caller below
                 with lock:
                     errors.append(exc)
+                continue
+            with lock:  # one build's lines together
+                print(text.rstrip("\n") + "\n" if text.strip() else "", end="")
+                print(f"[worker] {_describe(call)} done in {seconds:.1f} s", flush=True)
+
+    import torch
 
     # "spawn": a fresh interpreter, never a fork of a process that already runs torch threads.
     context = multiprocessing.get_context("spawn")
@@ -112,12 +137,16 @@ def warm_cache(calls: Sequence[Callable[[], object]], workers: Optional[int] = N
         feeders = [threading.Thread(target=feed, args=(pool,), daemon=True) for _ in range(workers - 1)]
         for thread in feeders:
             thread.start()
-        try:
+        threads = torch.get_num_threads()
+        torch.set_num_threads(1)  # this process is one of the workers: one core each, and a build's numbers
+        try:                      # do not depend on which process ran it
             while (call := next_call()) is not None:
                 call()
         except BaseException as exc:
             with lock:
                 errors.insert(0, exc)
+        finally:
+            torch.set_num_threads(threads)
         for thread in feeders:
             thread.join()
     if errors:

@@ -32,6 +32,7 @@ leave) of a pick as cases.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import sys
 import time
 from dataclasses import dataclass
@@ -55,7 +56,10 @@ __all__ = [
     "measure_run",
     "summarise",
     "PLANNER_VARIANTS",
+    "CONDITIONS",
     "table3_runs",
+    "table3_builds",
+    "condition_runs",
     "runs_from_rows",
 ]
 
@@ -242,17 +246,20 @@ PLANNER_VARIANTS = {  # Table 3's rows that are configurations of one planner (Â
 }
 
 
+CONDITIONS = {"w/o reshaping": False, "w/ reshaping": True}  # Table 3's two halves: label -> reshape
+
+
 def table3_runs(data_config, planner_config, policy_config, *, seed: int = 0, device="cpu") -> dict:
-    """Every planner of Table 3 on the test cases with and without reshaping, built once and then loaded
-    from the cache.
+    """Every planner of Table 3 on the test cases with and without reshaping: :func:`condition_runs` for each
+    condition (each built once, then loaded from the cache; :func:`table3_builds` builds them in parallel).
 
     Every planner starts at the case's start (the wrist). The minimum-jerk optimiser (the cuRobo stand-in)
     plans from there to the goal over the frames the straight distance takes at the training
     demonstrations' mean wrist speed; the diffusion policy (``baselines.trained_diffusion_policy`` with
     ``policy_config``) is rolled out ``planner_config.inits`` times per case (each rollout's own sampling
-    noise; all cases and repeats in one batch); each planner variant is trained (``intp.trained_planner``
-    with its channels) and plans with each of its ``planner_config.inits`` latent initialisations, its path
-    walking from the wrist to ``x_s`` first (``intp.WristPlan.from_wrist``).
+    noise; a condition's cases and repeats in one batch); each planner variant is trained
+    (``intp.trained_planner`` with its channels) and plans with each of its ``planner_config.inits`` latent
+    initialisations, its path walking from the wrist to ``x_s`` first (``intp.WristPlan.from_wrist``).
 
     Returns:
         ``{"w/o reshaping" | "w/ reshaping": {planner: {"runs": (inits or 1, cases, 7) measures
@@ -261,6 +268,32 @@ def table3_runs(data_config, planner_config, policy_config, *, seed: int = 0, de
         ``"runs from x_s"``: the same plans judged from their own ``x_s``, the walk from the wrist left out (a
         control: what the walk costs them).
     """
+    out = {"cases": {}}
+    for label, reshape in CONDITIONS.items():
+        rows = dict(condition_runs(data_config, planner_config, policy_config, reshape, seed=seed, device=device))
+        out["cases"][label] = int(rows.pop("cases"))
+        out[label] = rows
+    return out
+
+
+def table3_builds(data_config, planner_config, policy_config, *, seed: int = 0, device="cpu") -> tuple[list, list]:
+    """The independent builds behind :func:`table3_runs`, for ``infra.warm_cache``: the models (the Diffusion
+    Policy and each planner variant), then the two conditions' runs, which need the models. Each build runs on
+    one thread, so two at a time give the numbers one after the other gives."""
+    models = [functools.partial(baselines.trained_diffusion_policy, data_config, policy_config, device=device)]
+    models += [functools.partial(intp.trained_planner, data_config, dataclasses.replace(planner_config, channels=ch),
+                                 device=device) for ch in PLANNER_VARIANTS.values()]
+    runs = [functools.partial(condition_runs, data_config, planner_config, policy_config, reshape, seed=seed,
+                              device=device) for reshape in CONDITIONS.values()]
+    return models, runs
+
+
+def condition_runs(data_config, planner_config, policy_config, reshape: bool, *, seed: int = 0,
+                   device="cpu") -> dict:
+    """One condition of :func:`table3_runs` (``reshape``: the furniture reshaped or not), built once and then
+    loaded from the cache: ``{planner: {"runs", "seconds"[, "runs from x_s"]}, "cases": n}``."""
+    if not isinstance(reshape, bool):
+        raise ValueError(f"reshape: expected True or False, got {reshape!r}")
 
     def build():
         train = interactions.interaction_set(data_config, "train")
@@ -269,51 +302,45 @@ def table3_runs(data_config, planner_config, policy_config, *, seed: int = 0, de
         models = {name: intp.trained_planner(data_config, dataclasses.replace(planner_config, channels=ch), device=device).model
                   for name, ch in PLANNER_VARIANTS.items()}
         policy = baselines.trained_diffusion_policy(data_config, policy_config, device=device).model
-        conditions = {label: planning_cases(test, data_config.field, reshape=reshape, seed=seed)
-                      for label, reshape in (("w/o reshaping", False), ("w/ reshaping", True))}
-        repeats = [(label, k, case) for k in range(planner_config.inits) for label, cases in conditions.items()
-                   for case in cases]
+        cases = planning_cases(test, data_config.field, reshape=reshape, seed=seed)
+        repeats = [(k, case) for k in range(planner_config.inits) for case in cases]
         clock = time.perf_counter()
         policy_paths = baselines.diffusion_policy_rollout(
-            policy, [c.scene for *_, c in repeats], [c.start for *_, c in repeats], [c.goal for *_, c in repeats],
-            [c.condition for *_, c in repeats], seed=seed)
+            policy, [c.scene for _, c in repeats], [c.start for _, c in repeats], [c.goal for _, c in repeats],
+            [c.condition for _, c in repeats], seed=seed + int(reshape))  # each condition its own noise
         policy_seconds = (time.perf_counter() - clock) / len(repeats)
-        out = {"cases": {}}
-        for label, cases in conditions.items():
-            out["cases"][label] = len(cases)
-            rows = {}
-            per_repeat = [[_as_row(measure_run(path, case)) for (lab, k, case), path in zip(repeats, policy_paths)
-                           if lab == label and k == r] for r in range(planner_config.inits)]
-            rows["Diffusion Policy"] = {"runs": np.asarray(per_repeat), "seconds": np.full(len(cases), policy_seconds)}
-            runs, seconds = [], []
+        rows = {"cases": len(cases)}
+        per_repeat = [[_as_row(measure_run(path, case)) for (k, case), path in zip(repeats, policy_paths) if k == r]
+                      for r in range(planner_config.inits)]
+        rows["Diffusion Policy"] = {"runs": np.asarray(per_repeat), "seconds": np.full(len(cases), policy_seconds)}
+        runs, seconds = [], []
+        for case in cases:
+            clock = time.perf_counter()
+            n = max(3, int(np.ceil(np.linalg.norm(case.goal - case.start) / speed * 30.0)) + 1)
+            path = baselines.minimum_jerk_plan(case.start, case.goal, n, case.obstacle_sdf)
+            seconds.append(time.perf_counter() - clock)
+            runs.append(_as_row(measure_run(path, case)))
+        rows["cuRobo-like minimum jerk"] = {"runs": np.asarray([runs]), "seconds": np.asarray(seconds)}
+        for name, ch in PLANNER_VARIANTS.items():
+            cfg = dataclasses.replace(planner_config, channels=ch)
+            per_init = [[] for _ in range(cfg.inits)]
+            from_start = [[] for _ in range(cfg.inits)]
+            seconds = []
             for case in cases:
-                clock = time.perf_counter()
-                n = max(3, int(np.ceil(np.linalg.norm(case.goal - case.start) / speed * 30.0)) + 1)
-                path = baselines.minimum_jerk_plan(case.start, case.goal, n, case.obstacle_sdf)
-                seconds.append(time.perf_counter() - clock)
-                runs.append(_as_row(measure_run(path, case)))
-            rows["cuRobo-like minimum jerk"] = {"runs": np.asarray([runs]), "seconds": np.asarray(seconds)}
-            for name, ch in PLANNER_VARIANTS.items():
-                cfg = dataclasses.replace(planner_config, channels=ch)
-                per_init = [[] for _ in range(cfg.inits)]
-                from_start = [[] for _ in range(cfg.inits)]
-                seconds = []
-                for case in cases:
-                    plans = intp.plan_each_init(models[name], cfg, train, case.scene, case.condition, case.start,
-                                                   case.goal, inits=range(cfg.inits))
-                    seconds.append(np.mean([p.seconds for p in plans]))
-                    for k, plan in enumerate(plans):
-                        per_init[k].append(_as_row(measure_run(plan.from_wrist(case.start), case)))
-                        # the control: the integrated path alone, judged from its own x_s
-                        own_start = dataclasses.replace(case, start=plan.start)
-                        from_start[k].append(_as_row(measure_run(plan.positions, own_start)))
-                rows[name] = {"runs": np.asarray(per_init), "seconds": np.asarray(seconds),
-                              "runs from x_s": np.asarray(from_start)}
-            out[label] = rows
-        return out
+                plans = intp.plan_each_init(models[name], cfg, train, case.scene, case.condition, case.start,
+                                            case.goal, inits=range(cfg.inits))
+                seconds.append(np.mean([p.seconds for p in plans]))
+                for k, plan in enumerate(plans):
+                    per_init[k].append(_as_row(measure_run(plan.from_wrist(case.start), case)))
+                    # the control: the integrated path alone, judged from its own x_s
+                    own_start = dataclasses.replace(case, start=plan.start)
+                    from_start[k].append(_as_row(measure_run(plan.positions, own_start)))
+            rows[name] = {"runs": np.asarray(per_init), "seconds": np.asarray(seconds),
+                          "runs from x_s": np.asarray(from_start)}
+        return rows
 
     key = {"data": dataclasses.asdict(data_config), "planner": dataclasses.asdict(planner_config),
-           "policy": dataclasses.asdict(policy_config), "seed": int(seed)}
+           "policy": dataclasses.asdict(policy_config), "reshape": reshape, "seed": int(seed)}
     return load_or_build("choice_table3", key, build, code=(sys.modules[__name__], baselines, intp, interactions, fields))
 
 
