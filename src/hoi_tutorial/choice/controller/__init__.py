@@ -21,13 +21,19 @@ root / hip / left wrist / right wrist, ``w = 13`` samples over 2 s):
    the hip's and wrists' 6D trajectories over the next second (7 samples ``t + 5k``; §5.1: "in addition to
    the 2D root trajectories on the ground, the 6D transformations of the hip and left/right wrists are also
    given"): the recorded ones in training, noised by ``key_noise``; at run time the previous step's blend.
-3. **Network** (Fig. 4): a gating network on the phase features (current and goal ``A·sin, A·cos``)
-   blends the experts of an MoE main network (``nn.moe.MoEMLP``).
-4. **Outputs** ``Y_{t+1}``: the next pose (in the next root frame) with the root's update, the next
+3. **Network** (Fig. 4): a gating network that compares the key joints' transformations and the phase, now
+   and at the goal (the hip's and wrists' position and 6D rotation at ``t``, the four key joints' at the goal
+   keyframe, the current and goal ``A·sin, A·cos``), blends the experts of an MoE main network
+   (``nn.moe.MoEMLP``).
+4. **Outputs** ``Y_{t+1}``: the next pose (in the next root frame) — the 22 joints' local rotations in 6D
+   (``features.local_rotation_features``), with the joint positions and velocities as an auxiliary output —
+   with the root's update, the next
    phase, the egocentric key-joint trajectory ``T^ego_{t+1}`` (1 s ahead, in the root frame of ``t``),
    the goal-centric one ``T^inv_{t+1}`` (each key joint in its own goal frame ``G``), and the goal
    estimate ``Ĝ`` (13-sample window at ``g``) with its phase ``P̂_g``.
-5. **Run time** (:func:`runtime.controller_step`): ``G T^inv`` (Eq. 14) is blended with ``T^ego`` with a weight
+5. **Run time** (:func:`runtime.controller_step`): the body is posed by forward kinematics from the predicted
+   rotations, blended half-way from the previous frame's, with each character's bone offsets
+   (``features.pose_from_rotations``: every bone keeps its length). ``G T^inv`` (Eq. 14) is blended with ``T^ego`` with a weight
    that grows as the working wrist nears its goal; the blended trajectories are the next step's inputs (the
    root's as its future root trajectory, the hip's and wrists' as theirs: Fig. 4, "our bi-directional control
    blends the key-joint transformation prediction", fed back as NSM feeds back its control signals).

@@ -36,7 +36,8 @@ class ControllerState(NamedTuple):
 
     Attributes:
         origin: (B, 3) the root on the ground, world metres. heading: (B,) radians (0 faces +Y).
-        pose: (B, 132) joint positions and velocities in the root frame (m, m/s).
+        pose: (B, 132) joint positions (the body posed by forward kinematics) and velocities in the root frame
+            (m, m/s).
         history: (B, 31, 4) the root's world ground position and forward direction over the last
             ``PAST + 1`` frames, the current last.
         future: (B, 7, 4) the root trajectory ``t + 5k`` (k = 0..6) in the root frame: position, forward.
