@@ -51,8 +51,8 @@ def _run(call: Callable[[], object]) -> tuple[str, float]:
 def _describe(call: Callable[[], object]) -> str:
     """A build's name for progress lines: ``module.function`` of the call (of a partial's function)."""
     function = getattr(call, "func", call)
-    module = getattr(function, "__module__", "") or ""
-    return f"{module.rsplit('.', 1)[-1]}.{getattr(function, '__name__', type(function).__name__)}".lstrip(".")
+    name = getattr(function, "__name__", type(function).__name__)
+    return f"{(function.__module__ or '').rsplit('.', 1)[-1]}.{name}"
 
 
 def warm_cache(calls: Sequence[Callable[[], object]], workers: Optional[int] = None) -> None:
@@ -126,7 +126,8 @@ def warm_cache(calls: Sequence[Callable[[], object]], workers: Optional[int] = N
                     errors.append(exc)
                 continue
             with lock:  # one build's lines together
-                print(text.rstrip("\n") + "\n" if text.strip() else "", end="")
+                if text.strip():
+                    print(text.rstrip("\n"))
                 print(f"[worker] {_describe(call)} done in {seconds:.1f} s", flush=True)
 
     import torch

@@ -33,9 +33,9 @@ root / hip / left wrist / right wrist, ``w = 13`` samples over 2 s):
    estimate ``Ĝ`` (13-sample window at ``g``) with its phase ``P̂_g``.
 5. **Run time** (:func:`runtime.controller_step`): the body is posed by forward kinematics from the predicted
    rotations, blended half-way from the previous frame's, with each character's bone offsets
-   (``features.pose_from_rotations``: every bone keeps its length). ``G T^inv`` (Eq. 14) is blended with ``T^ego`` with a weight
-   that grows as the working wrist nears its goal; the blended trajectories are the next step's inputs (the
-   root's as its future root trajectory, the hip's and wrists' as theirs: Fig. 4, "our bi-directional control
+   (``features.pose_from_rotations``: every bone keeps its length). ``G T^inv`` (Eq. 14) is blended with ``T^ego``
+   with a weight that grows as the working wrist nears its goal; the blended trajectories are the next step's inputs
+   (the root's as its future root trajectory, the hip's and wrists' as theirs: Fig. 4, "our bi-directional control
    blends the key-joint transformation prediction", fed back as NSM feeds back its control signals).
    ``c = Dev(G T^inv, T^ego)`` (Eq. 22) is returned for the Kalman filter. The phase moves by Eqs. 15–16
    (:func:`runtime.phase_update`): ``X_{t+Δt} = A X_t + B U``, the phase advanced by its frequency and moved

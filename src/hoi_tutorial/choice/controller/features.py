@@ -27,7 +27,7 @@ __all__ = [
     "TRANSFORM", "POSE_BLEND", "PELVIS_JOINT", "WRIST_JOINTS", "WRIST_JOINT_INDEX",
     "key_joint_transforms", "in_frame", "encode_transform", "decode_transform", "goal_phase_features", "phase_state",
     "io_layouts", "pose_features", "local_rotation_features", "pose_from_rotations", "clip_features",
-    "next_root_frame", "blended_pose", "blend_pose_in_frame",
+    "next_root_frame", "blended_pose", "blend_pose_in_frame", "blend_rotations_in_frame",
     "next_root_trajectory", "carried_root_trajectory", "next_key_trajectories", "carried_key_trajectories",
     "wrapped_angle",
 ]
@@ -212,6 +212,17 @@ def blend_pose_in_frame(previous, predicted, shift, turn):
     moved = (previous[:, :n].reshape(-1, NUM_JOINTS, 3) - shift[:, None]) @ turn  # Rᵀ p per joint
     carried = moved.flatten(1) + predicted[:, n:] / FPS
     return torch.cat([(1 - POSE_BLEND) * carried + POSE_BLEND * predicted[:, :n], predicted[:, n:]], dim=-1)
+
+
+def blend_rotations_in_frame(previous, predicted, turn):
+    """The local rotations of ``t + 1`` a step keeps (B, 22·6, :func:`local_rotation_features`' layout): each
+    ``POSE_BLEND`` of the way from the previous one (root frame of ``t``; the pelvis's carried into the next root
+    frame ``turn`` of :func:`next_root_frame`) to the predicted one (root frame of ``t + 1``), as
+    :func:`blend_pose_in_frame` blends the positions. The blend of two 6D vectors is not a rotation until
+    Gram–Schmidt (:func:`pose_from_rotations`) makes one of it."""
+    previous = previous.reshape(-1, NUM_JOINTS, 2, 3).clone()  # two columns per joint
+    previous[:, 0] = previous[:, 0] @ turn  # the pelvis's columns seen from the next root frame: (Rᵀ c)ᵀ
+    return (1 - POSE_BLEND) * previous.flatten(1) + POSE_BLEND * predicted
 
 
 def next_root_trajectory(ego: torch.Tensor, update: torch.Tensor) -> torch.Tensor:

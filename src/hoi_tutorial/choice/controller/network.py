@@ -152,8 +152,9 @@ class ControllerNet(nn.Module):
 
     The gating network compares the key joints' transformations and the phase, now and at the goal (Fig. 4): the
     hip's and wrists' position and 6D rotation at ``t`` and the four key joints' at the goal keyframe, with the
-    current and goal phase-manifold features ``A·(sin, cos)`` (all standardised); the main network ``nn.moe.MoEMLP`` sees the whole standardised input. Inputs and outputs are
-    standardised with buffers set from the training data. The trained PAE rides along, frozen, as
+    current and goal phase-manifold features ``A·(sin, cos)`` (all standardised); the main network
+    ``nn.moe.MoEMLP`` sees the whole standardised input. Inputs and outputs are standardised with buffers set from
+    the training data. The trained PAE rides along, frozen, as
     ``phase_model`` (a rollout's first phase comes from it).
     """
 
@@ -167,7 +168,8 @@ class ControllerNet(nn.Module):
             gate[self.x_layout[name].start:self.x_layout[name].start + 2 * C] = True
         keys = self.x_layout["keys"].start  # the hip's and wrists' transformations now (the trajectories' k = 0)
         gate[keys:keys + (len(KEY_JOINTS) - 1) * TRANSFORM] = True
-        goal = self.x_layout["goal"].start + (WINDOW // 2) * len(KEY_JOINTS) * TRANSFORM  # the four at the goal keyframe
+        # the four key joints' at the goal keyframe (the window's pivot)
+        goal = self.x_layout["goal"].start + (WINDOW // 2) * len(KEY_JOINTS) * TRANSFORM
         gate[goal:goal + len(KEY_JOINTS) * TRANSFORM] = True
         self.register_buffer("gating_mask", gate, persistent=False)
         self.net = MoEMLP(self.in_size, hidden, self.out_size, n_experts, gating_in=int(gate.sum()),

@@ -21,8 +21,8 @@ from ...world.motion import FPS, Motion
 from ...world.rotations import rotation_about_z
 from ...world.skeleton import NUM_JOINTS, bone_offsets
 from . import kalman, phase
-from .features import (FUTURE_OFFSETS, KEY_JOINTS, PAST, POSE_BLEND, SAMPLE_STEP, TRANSFORM, VARIANTS, WINDOW,
-                       WINDOW_OFFSETS, WRIST_JOINT_INDEX, blend_pose_in_frame, carried_key_trajectories,
+from .features import (FUTURE_OFFSETS, KEY_JOINTS, PAST, SAMPLE_STEP, TRANSFORM, VARIANTS, WINDOW, WINDOW_OFFSETS,
+                       WRIST_JOINT_INDEX, blend_pose_in_frame, blend_rotations_in_frame, carried_key_trajectories,
                        carried_root_trajectory, decode_transform, encode_transform, goal_phase_features, in_frame,
                        key_joint_transforms, local_rotation_features, next_root_frame, phase_state, pose_features,
                        pose_from_rotations, wrapped_angle)
@@ -261,13 +261,9 @@ def _step(model, state, goal, goal_phase, blend_radius, filter_config):
     new_frame = rotation_about_z(heading)
     blended_p, blended_r = decode_transform(blended)
     history = torch.cat([state.history[:, 1:], _ground(origin, heading)[:, None]], dim=1)
-    # the body posed by FK from the predicted local rotations (every bone keeps its length), the velocities predicted
+    # the body posed by FK from the blended local rotations (every bone keeps its length), the velocities predicted
     predicted = y[:, layout["pose"]]
-    rotations = y[:, layout["rotations"]]
-    # half-way from the previous local rotations (6D; Gram–Schmidt in FK), as the positions were blended
-    previous = state.rotations.reshape(B, NUM_JOINTS, 2, 3).clone()
-    previous[:, 0] = previous[:, 0] @ turn  # the pelvis's columns seen from the next root frame: (Rᵀ c)ᵀ
-    rotations = (1 - POSE_BLEND) * previous.flatten(1) + POSE_BLEND * rotations
+    rotations = blend_rotations_in_frame(state.rotations, y[:, layout["rotations"]], turn)
     pelvis = blend_pose_in_frame(state.pose, predicted, shift, turn)[:, :3]  # the pelvis blended as before
     joints_next = pose_from_rotations(rotations, pelvis, state.offsets)
     pose_next = torch.cat([joints_next.flatten(1), predicted[:, NUM_JOINTS * 3:]], dim=-1)
