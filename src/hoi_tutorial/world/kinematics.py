@@ -54,13 +54,17 @@ def forward_kinematics(local_rotations: torch.Tensor, root_position: torch.Tenso
     check_shape(offsets, (..., NUM_JOINTS, 3), "offsets")
     offsets = offsets.to(dtype=local_rotations.dtype, device=local_rotations.device)
     offsets = offsets.expand(local_rotations.shape[:-3] + (NUM_JOINTS, 3))
-    rots = [local_rotations[..., 0, :, :]]
-    pos = [root_position]
+    # one unbind per input and positions kept as columns (..., 3, 1) until the end: the same products and sums
+    # in fewer calls (a batch-1 call is mostly per-call overhead: about twice as fast)
+    local = local_rotations.unbind(-3)
+    columns = offsets[..., None].unbind(-3)
+    rots = [local[0]]
+    pos = [root_position[..., None]]
     for j in range(1, NUM_JOINTS):
         p = PARENTS[j]
-        rots.append(rots[p] @ local_rotations[..., j, :, :])
-        pos.append(pos[p] + (rots[p] @ offsets[..., j, :, None])[..., 0])
-    return torch.stack(rots, dim=-3), torch.stack(pos, dim=-2)
+        rots.append(rots[p] @ local[j])
+        pos.append(pos[p] + rots[p] @ columns[j])
+    return torch.stack(rots, dim=-3), torch.cat(pos, dim=-1).transpose(-1, -2)
 
 
 def global_to_local_rotations(global_rotations: torch.Tensor) -> torch.Tensor:
