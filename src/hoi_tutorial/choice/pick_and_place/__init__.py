@@ -13,13 +13,14 @@ Modules, in the order of the paper:
   cabinet, open it with one hand, take the bottle with the other, put it on the table (§6, §8.3); its
   stance search in ``stances``, its motion pieces (walks, the plans at the cabinet and the table) in
   ``motion_pieces``, its collision checks in ``checks`` and the small types they pass each other (the
-  configuration, the setting, stances and plans) in ``demo_types``. The body there is posed by IK and the toy
-  world's body planner, not yet by the controller.
+  configuration, the setting, stances and plans) in ``demo_types``; the hands' approaches to the bottle and to the
+  table are planned by §4's planner (``hand_paths``). The body there is posed by IK and the toy world's body
+  planner, not yet by the controller.
 - ``table4``: Table 4's runs (§8.3.1) — the controller (§5) driven toward goals matched by §6.1 in unseen scenes,
   with each source of the goal phase.
 """
-from . import (checks, demo, demo_types, environment, goal_library, locomotion, motion_pieces, navigation, scheduler,
-               stances, table4)
+from . import (checks, demo, demo_types, environment, goal_library, hand_paths, locomotion, motion_pieces, navigation,
+               scheduler, stances, table4)
 
 __all__ = ["environment", "goal_library", "navigation", "locomotion", "scheduler", "demo", "demo_types", "stances",
-           "motion_pieces", "checks", "table4"]
+           "motion_pieces", "hand_paths", "checks", "table4"]

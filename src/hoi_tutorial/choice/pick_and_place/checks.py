@@ -41,7 +41,24 @@ __all__ = [
     "body_distances",
     "arm_measures",
     "evaluate",
+    "distance_to_polyline",
 ]
+
+
+# ----------------------------------------------------------------------------- a wrist against its path
+
+
+def distance_to_polyline(points, polyline) -> np.ndarray:
+    """(n,) each of ``points`` (n, 3)'s distance (metres) to the nearest segment of ``polyline`` (K ≥ 2, 3): how far a
+    wrist in the frames is from the path it was to follow."""
+    points, polyline = (np.asarray(v, dtype=np.float64) for v in (points, polyline))
+    if points.ndim != 2 or points.shape[-1] != 3 or polyline.ndim != 2 or polyline.shape[-1] != 3 or len(polyline) < 2:
+        raise ValueError(f"points, polyline: expected (n, 3) points and a (K >= 2, 3) polyline, got "
+                         f"{points.shape} and {polyline.shape}")
+    a, ab = polyline[:-1], np.diff(polyline, axis=0)
+    t = np.einsum("nkd,kd->nk", points[:, None] - a[None], ab) / np.maximum((ab * ab).sum(-1), 1e-12)
+    closest = a[None] + np.clip(t, 0.0, 1.0)[..., None] * ab[None]
+    return np.linalg.norm(points[:, None] - closest, axis=-1).min(axis=1)
 
 
 # ----------------------------------------------------------------------------- the cabinet's handle

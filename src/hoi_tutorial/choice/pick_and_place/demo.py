@@ -26,15 +26,15 @@ The algorithm box, as this module runs it (:func:`pick_and_place`):
 5. **At the cabinet** (Fig. 6's states as wrist paths; steps 4–7 are in ``motion_pieces``): the door hand reaches the handle and pulls it on
    its circle about the hinge to ``task.opening`` (minimum-jerk in time); the body turns to face the handle
    while the door's edge passes, then steps (``world.mocap.standing.step_feet``) behind the door to B; the
-   other hand, waiting in front of the belly, goes to the outer end of the bottle's way out by a
-   collision-penalised minimum-jerk path (``planner.baselines.minimum_jerk_plan``, CHOICE I's planner
-   stand-in), then in along the way reversed (``task.carry`` → lifted grasp point → grasp point), grasps,
-   and takes the bottle out along the way; the door hand lets go (the door stays open); the body stands up
+   other hand, waiting in front of the belly, reaches the bottle's grasp point along the path §4's planner
+   plans in this kitchen (``hand_paths.planned_approach``: the fields around the bottle with the opened cabinet
+   as an obstacle, Eqs. 9–11), grasps, and takes the bottle out along its way (grasp point → lifted → ``task.carry``); the door hand lets go (the door stays open); the body stands up
    and steps back to a free floor cell while the bottle is brought out and up in front of it.
 6. **Carry** (§6.2 again): the walk to a stance at the table edge nearest the cabinet, on the floor grid of
    the kitchen with the door open, the carrying arm held by IK at ``hold`` in the body's heading frame.
-7. **Place and release** (Fig. 6): the bottle is lowered onto a free spot of the table top (the
-   scheduler's ``place_at`` is where its grasp point goes), then the hand draws back and hangs.
+7. **Place and release** (Fig. 6): the bottle is lowered onto a free spot of the table top along the path §4's
+   planner plans to it (the bottle where it will stand as the target; the scheduler's ``place_at`` is where its
+   grasp point goes), then the hand draws back and hangs.
 8. **Checks** (:func:`evaluate`, from ``checks``): the door's opening against the
    scheduler's, the bottle out of the cabinet's box and standing on the table, the clearance of body and
    bottle against the scene with the cabinet rebuilt at every frame's door angle, the door hand's distance
@@ -44,7 +44,7 @@ Choices that are ours (the paper does not state them, or we simplify):
 
 - **The body is not driven by the §5.1 controller.** The arms are posed by two-bone IK
   (``world.kinematics.solve_limb_ik``, through ``world.mocap.body_plan.plan_to_motion``) on the scheduled
-  keyframes and our wrist paths; the trunk bends (``world.mocap.standing.choose_bend``) so that the
+  keyframes and the wrist paths (the planner's two approaches; ours for the handle, the way out and the hold); the trunk bends (``world.mocap.standing.choose_bend``) so that the
   shoulders reach; the feet are planted except for the steps at the cabinet (A → B, B → the walk's start)
   and the walks. The mixture-of-experts controller of §5.1 (``choice.controller``) is evaluated
   separately (Table 4) and plays no part here; nor does §6.2's phase-driven interaction motion.
@@ -97,6 +97,7 @@ from . import goal_library, locomotion, navigation, scheduler
 from .checks import body_distances, body_points, evaluate, handle_at
 from .environment import EnvironmentConfig, KeyPose
 from .goal_library import LibraryConfig
+from .hand_paths import hand_planner
 from .motion_pieces import (attach_bottle, exit_point, hold_arm, last_pose, pelvis_yaw, plan_at_cabinet,
                                     plan_at_table, settle, walk)
 from .navigation import NavigationConfig
@@ -286,7 +287,7 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
     if hands["door"] == hands["bottle"]:
         # one hand does both (sequential): the demo is the co-temporal case of the paper; say so
         raise ValueError(f"schedule: expected a co-temporal schedule, Eq. 24 chose {chosen.schedule.name}")
-    setting = DemoSetting(body, task, hands, config)
+    setting = DemoSetting(body, task, hands, config, hand_planner("toy"), seed)  # §4's planner plans the hands
     g = setting.bottle_side
     walk_goal = scheduler.keyframes(task, chosen)[0].position[:2]  # the first matched keyframe's pelvis
     stance_xy, heading, bend1, stance_source = open_stance(setting, cabinet, walk_goal, grid, rng)
@@ -340,7 +341,7 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
             best = (rank, xy_b, psi_b, exit_b, built, motion_b)
         if score >= 0.0 and error <= _HOLD_TOLERANCE:
             break
-    _, take_xy, take_heading, exit_xy, (cab_plan, cab_phases, cab_door, grasp_frame), cab_motion = best
+    _, take_xy, take_heading, exit_xy, (cab_plan, cab_phases, cab_door, grasp_frame, bottle_path), cab_motion = best
 
     # the table: its stance and the spot, then Fig. 6's keyframes with the place
     contact_offset = task.target.contact - bottle.translation
@@ -377,7 +378,8 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
     if carried:
         add("walk to table", hold_arm(carried[0], g, config.hold))
     add("settle at table", hold_arm(settle2, g, config.hold))
-    table_plan, table_phases = plan_at_table(setting, Stance(table_xy, table_heading), table_bend, spot, place_at)
+    table_plan, table_phases, place_path = plan_at_table(setting, Stance(table_xy, table_heading), table_bend, spot,
+                                                         place_at)
     offset = sum(len(p) for p in pieces)
     pieces.append(plan_to_motion(table_plan, body))
     at = offset
@@ -403,7 +405,8 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
               "goal_error": float(nav2.goal_error), "stopped": nav2.stopped,
               "frames": len(carried[0]) if carried else 0}]
     result = PickAndPlace(seed, kitchen, plan, first.chosen, motion, door, bottle_pose, phases, hands, np.asarray(place_at),
-                          walks, config=config)
+                          walks, config=config, hand_paths={"reach bottle": bottle_path.as_record(),
+                                                            "place": place_path.as_record()})
     result.checks = evaluate(result)
     result.checks["walks_reached"] = bool(nav1.reached and nav2.reached)
     result.seconds = time.perf_counter() - t0
@@ -440,7 +443,7 @@ def cached_pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceCo
                 "bottle_pose": run.bottle_pose, "phases": [list(p) for p in run.phases], "hands": dict(run.hands),
                 "place_at": run.place_at, "walks": run.walks, "checks": run.checks, "seconds": float(run.seconds),
                 "chosen": _index_of(run.plan.chosen, run.plan.candidates),
-                "eq24": _index_of(run.eq24, run.plan.candidates)}
+                "eq24": _index_of(run.eq24, run.plan.candidates), "hand_paths": run.hand_paths}
 
     # the kitchens, the body, the motion data, the trained models and their training: all of it shapes the run
     stored = load_or_build("choice_pick_and_place", {"seed": seed, "config": dataclasses.asdict(config)}, build,
@@ -453,7 +456,8 @@ def cached_pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceCo
     return PickAndPlace(seed, first.task.kitchen, plan, first.candidates[stored["eq24"]], motion,
                         np.asarray(stored["door_angle"]), np.asarray(stored["bottle_pose"]),
                         [tuple(p) for p in stored["phases"]], dict(stored["hands"]), place_at, stored["walks"],
-                        checks=stored["checks"], seconds=stored["seconds"], config=config)
+                        checks=stored["checks"], seconds=stored["seconds"], config=config,
+                        hand_paths=stored["hand_paths"])
 
 
 def controller_at_cabinet(run: PickAndPlace, model, frames: int = 60, lead: float = 1.0) -> dict:

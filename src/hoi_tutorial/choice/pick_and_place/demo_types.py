@@ -122,6 +122,9 @@ class PickAndPlace:
         checks: ``checks.evaluate``'s dictionary.
         seconds: wall time of the run.
         config: the configuration it ran with.
+        hand_paths: the hands' approaches §4's planner planned, by phase (``"reach bottle"``, ``"place"``):
+            ``hand_paths.HandPath.as_record`` (the polyline the wrist follows, ``x_s``, each initialisation's
+            clearance and fit, the one played, the seconds).
     """
 
     seed: int
@@ -138,6 +141,7 @@ class PickAndPlace:
     checks: dict = field(default_factory=dict)
     seconds: float = 0.0
     config: PickAndPlaceConfig = PickAndPlaceConfig()
+    hand_paths: dict = field(default_factory=dict)
 
     def phase(self, name: str) -> tuple:
         """``(start, stop)`` of the first phase called ``name``."""
@@ -156,12 +160,16 @@ class DemoSetting:
         task: the scheduler's task (the bottle ``target``, the door ``auxiliary``, the opening and the carry point).
         hands: ``{"door": side, "bottle": side}``, each ``"left"`` or ``"right"``.
         config: the demo's :class:`PickAndPlaceConfig`.
+        planner: the §4 planner the hands' approaches are planned with (``hand_paths.hand_planner``).
+        seed: the run's seed (the planner's latent initialisations).
     """
 
     body: PlanBody
     task: Task
     hands: dict
     config: PickAndPlaceConfig
+    planner: object
+    seed: int = 0
 
     @property
     def door_side(self) -> int:
@@ -214,19 +222,23 @@ class TableStance(NamedTuple):
 
 class CabinetPlan(NamedTuple):
     """The plan at the cabinet: the body ``plan``, its ``phases`` ``[(name, frames)]``, the ``door`` angle per
-    frame (T,) and ``grasp_frame``, the first frame the bottle is held."""
+    frame (T,), ``grasp_frame``, the first frame the bottle is held, and ``bottle_path``, the bottle hand's
+    approach planned by §4's planner (``hand_paths.HandPath``)."""
 
     plan: object
     phases: list
     door: np.ndarray
     grasp_frame: int
+    bottle_path: object
 
 
 class TablePlan(NamedTuple):
-    """The plan at the table: the body ``plan`` and its ``phases`` ``[(name, frames)]``."""
+    """The plan at the table: the body ``plan``, its ``phases`` ``[(name, frames)]`` and ``place_path``, the
+    bottle hand's approach to the spot planned by §4's planner (``hand_paths.HandPath``)."""
 
     plan: object
     phases: list
+    place_path: object
 
 
 class BodyDistances(NamedTuple):

@@ -27,10 +27,10 @@ from ...world.mocap.standing import bend_params, bend_plan, chest_frames, standi
 from ...world.motion import FPS, Motion, action_id
 from ...world.scenes import Kitchen
 from ...world.skeleton import joint_index
-from ..planner.baselines import minimum_jerk_plan
 from . import environment as env
 from . import locomotion
 from .checks import handle_at
+from .hand_paths import planned_approach
 from .demo_types import CabinetPlan, DemoSetting, PickAndPlaceConfig, Stance, TablePlan
 from .stances import stance_bend, stance_pose
 
@@ -221,13 +221,13 @@ def plan_at_cabinet(setting: DemoSetting, stance_a: Stance, stance_b: Stance, ex
     rest = (plan.root + sign_g * 0.05 * right_xyz(psi) + 0.25 * forward_xyz(psi) + 0.15 * UP)
     n_wait = waiting.stop - waiting.start
     hand_on_point(plan, waiting, g, rest[waiting], smoothstep(np.arange(n_wait) / min(20, n_wait)))
-    # in: to the way's outer end by a collision-penalised minimum-jerk path (planner.baselines), then straight in
+    # in: the approach §4's planner plans in this scene (hand_paths), minimum-jerk along it
     opened = cabinet.with_params(door_angle=q_full)
-    n_free = max(3, int(round(0.55 * reach)))
-    free = minimum_jerk_plan(rest[waiting.stop - 1], carry, n_free, lambda x: opened.sdf(x),
-                             margin=config.contact_radius)
-    inward = along_path(way[::-1], min_jerk(np.arange(1, reach - n_free + 1) / (reach - n_free)))
-    hand_on_point(plan, span["reach bottle"], g, np.concatenate([free, inward]), np.ones(reach))
+    kitchen = task.kitchen
+    others = [f for f in kitchen.furniture if f is not cabinet] + list(kitchen.items[1:]) + list(kitchen.obstacles)
+    bottle_path = planned_approach(setting.planner, task.kitchen.items[0], [opened] + others, rest[waiting.stop - 1],
+                                   contact, SIDES[g], "grasp", grid_yaw=_yaw(cabinet), seed=setting.seed)
+    hand_on_point(plan, span["reach bottle"], g, bottle_path.timed(reach, min_jerk), np.ones(reach))
     hand_on_point(plan, span["grasp bottle"], g, np.broadcast_to(contact, (grasp, 3)), np.ones(grasp))
     hand_on_point(plan, span["take out"], g, along_path(way, min_jerk(u["take out"])), np.ones(take_out))
     hand_on_point(plan, span["release door"], g, np.broadcast_to(carry, (release, 3)), np.ones(release))
@@ -245,7 +245,12 @@ def plan_at_cabinet(setting: DemoSetting, stance_a: Stance, stance_b: Stance, ex
         plan.contacts[span[name], 3 + d] = True
     for name in ("grasp bottle", "take out", "release door", "stand up"):
         plan.contacts[span[name], 3 + g] = True
-    return CabinetPlan(plan, [(name, n) for name, n, _ in names], door, int(span["grasp bottle"].start))
+    return CabinetPlan(plan, [(name, n) for name, n, _ in names], door, int(span["grasp bottle"].start), bottle_path)
+
+
+def _yaw(thing) -> float:
+    """The yaw (radians) of a furniture's or item's rotation about +Z."""
+    return float(np.arctan2(thing.rotation[1, 0], thing.rotation[0, 0]))
 
 
 def exit_point(scene, grid, xy, clearance: float) -> np.ndarray:
@@ -314,13 +319,23 @@ def plan_at_table(setting: DemoSetting, stance: Stance, bend: tuple, spot, place
     plan.actions[:place] = action_id("grasp")
     plan.actions[place:] = action_id("idle")
     hold = hold_point(root, heading, side, config.hold)
-    above = place_at + 0.06 * UP
-    hand_on_point(plan, slice(0, place), side, along_path([hold, above, place_at], min_jerk(u_place)), np.ones(place))
+    # down: the approach §4's planner plans to the spot, with the bottle where it will stand as the target
+    kitchen, bottle = setting.task.kitchen, setting.task.kitchen.items[0]
+    table = kitchen.furniture_of("table")
+    cabinet = kitchen.furniture_of("cabinet")
+    standing = np.array(bottle.pose)
+    standing[:3, :3] = rot_z(heading - _yaw(cabinet)) @ bottle.rotation  # turned with the body, as it is carried
+    standing[:3, 3] = spot
+    others = [f for f in kitchen.furniture if f is not cabinet]
+    others += [cabinet.with_params(door_angle=float(setting.task.opening))] + list(kitchen.items[1:]) + list(kitchen.obstacles)
+    place_path = planned_approach(setting.planner, bottle.with_pose(standing), others, hold, place_at, SIDES[side],
+                                  "place", grid_yaw=_yaw(table), seed=setting.seed)
+    hand_on_point(plan, slice(0, place), side, place_path.timed(place, min_jerk), np.ones(place))
     back = place_at - 0.10 * forward_xyz(heading) + 0.04 * UP
     s = min_jerk(np.clip(u_go / 0.5, 0, 1))
     hand_on_point(plan, slice(place, T), side, along_path([place_at, back], s), 1.0 - smoothstep((u_go - 0.4) / 0.6))
     plan.contacts[:place, 3 + side] = True
-    return TablePlan(plan, [("place", place), ("release bottle", let_go)])
+    return TablePlan(plan, [("place", place), ("release bottle", let_go)], place_path)
 
 
 def attach_bottle(bottle, wrists: np.ndarray, yaws: np.ndarray, first: int, last: int) -> np.ndarray:
