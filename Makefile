@@ -16,6 +16,10 @@ BENCH_ARGS ?=
 LOCK ?= requirements.lock
 # Chapters scripts/colab_check.py executes in a bare runtime (empty: its default, chapters 01 and 02).
 COLAB_CHAPTERS ?=
+# Seconds one cell of a chapter may run in `make book` and `make test`. A chapter's first code cell builds what
+# the chapter needs, and on a machine half as fast as CI's the longest take over 10 min: readers get 30 min.
+# CI keeps 600 s (.ci/run), so a chapter that grows slower fails there first.
+CELL_TIMEOUT ?= 1800
 
 VENV_DIR := $(abspath $(VENV))
 VENV_BIN := $(VENV_DIR)/bin
@@ -60,7 +64,7 @@ lock:
 # Unit tests, then every chapter executed as a test with nbval in lax mode (a cell fails on an
 # exception or a failed assert). pytest exits with 5 when it collects no tests: not a failure.
 test: venv
-	@PATH="$(VENV_BIN):$$PATH" $(PY) -m pytest tests notebooks --nbval-lax --nbval-cell-timeout=600; rc=$$?; \
+	@PATH="$(VENV_BIN):$$PATH" $(PY) -m pytest tests notebooks --nbval-lax --nbval-cell-timeout=$(CELL_TIMEOUT); rc=$$?; \
 	if [ $$rc -eq 5 ]; then echo "pytest collected no tests (treated as success)"; rc=0; fi; \
 	exit $$rc
 
@@ -83,8 +87,13 @@ test-fresh: venv
 
 # MPLBACKEND is cleared so that the kernels draw figures inline into the pages.
 # A chapter that raises fails the build (execute.raise_on_error in _config.yml).
+# The build reads _config.yml with its cell timeout set to CELL_TIMEOUT (a copy in _build; nothing else differs).
 book: venv
-	PATH="$(VENV_BIN):$$PATH" env -u MPLBACKEND $(VENV_BIN)/jupyter-book build . $(BOOK_FLAGS)
+	@mkdir -p _build
+	@sed 's/^  timeout: [0-9][0-9]*$$/  timeout: $(CELL_TIMEOUT)/' _config.yml > _build/_config.yml
+	@grep -q '^  timeout: $(CELL_TIMEOUT)$$' _build/_config.yml || { echo "_config.yml: expected a line '  timeout: N' under execute"; exit 1; }
+	@echo "book: cells may run $(CELL_TIMEOUT) s (CELL_TIMEOUT)"
+	PATH="$(VENV_BIN):$$PATH" env -u MPLBACKEND $(VENV_BIN)/jupyter-book build . --config _build/_config.yml $(BOOK_FLAGS)
 	@echo "book: _build/html/index.html"
 
 bench: venv
