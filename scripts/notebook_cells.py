@@ -4,7 +4,9 @@ Cell 1 installs the library only where ``import hoi_tutorial`` fails (a bare Col
 it is tagged ``hide-cell`` so the rendered book folds it away. The install address is read from
 ``_config.yml`` (the one place the repository URL is kept); the environment variable
 ``HOI_TUTORIAL_SOURCE``, when set, replaces it with any other ``pip install`` target, e.g. the path
-of a local checkout (``make colab-check`` uses this). Cell 2 is papermill's ``parameters`` cell.
+of a local checkout (``make colab-check`` uses this). A chapter that calls ``hoi_tutorial.viz.render``'s
+renders installs the library with its ``render`` extra (pyvista and VTK); the others install the core alone.
+Cell 2 is papermill's ``parameters`` cell.
 
 Usage: ``python scripts/notebook_cells.py notebooks/*.ipynb`` rewrites cell 1 of each notebook
 from the current ``_config.yml`` (and strips outputs); ``--check`` only reports differences.
@@ -12,6 +14,8 @@ from the current ``_config.yml`` (and strips outputs); ``--check`` only reports 
 from __future__ import annotations
 
 import argparse
+import ast
+import re
 import sys
 from pathlib import Path
 
@@ -22,6 +26,11 @@ REPO_ROOT = Path(__file__).resolve().parents[1]
 SETUP_TAGS = ["hide-cell", "setup"]
 # Names the pip target that replaces the repository address in the set-up cell.
 SOURCE_VARIABLE = "HOI_TUTORIAL_SOURCE"
+# The extra (pyproject.toml) a chapter that renders in 3D installs, and the module whose functions need it.
+RENDER_EXTRA = "render"
+RENDER_MODULE = REPO_ROOT / "src" / "hoi_tutorial" / "viz" / "render.py"
+# render.py's exports that do not need pyvista
+_RENDER_FREE = {"SKIN_COLOR", "OBJECT_COLORS", "CAMERAS", "RenderingUnavailable", "unavailable_image", "show_image"}
 
 
 def repository_url() -> str:
@@ -29,14 +38,17 @@ def repository_url() -> str:
     return config["repository"]["url"]
 
 
-def default_install_target() -> str:
-    """The pip requirement the set-up cell installs by default: the library from its repository."""
-    return f"hoi_tutorial @ git+{repository_url()}"
+def default_install_target(render: bool = False) -> str:
+    """The pip requirement the set-up cell installs by default: the library from its repository (with the
+    ``render`` extra for a chapter that renders)."""
+    extra = f"[{RENDER_EXTRA}]" if render else ""
+    return f"hoi_tutorial{extra} @ git+{repository_url()}"
 
 
-def install_target(environ=None) -> str:
+def install_target(environ=None, render: bool = False) -> str:
     """What the set-up cell passes to ``pip install``: ``$HOI_TUTORIAL_SOURCE`` when set and not
-    empty (a local checkout, a wheel, another git address), else :func:`default_install_target`.
+    empty (a local checkout, a wheel, another git address; ``[render]`` appended for a chapter that
+    renders), else :func:`default_install_target`.
 
     The set-up cell computes the same thing in its own code (it cannot import this script); a test
     executes that code and compares it with this function.
@@ -44,26 +56,54 @@ def install_target(environ=None) -> str:
     import os
 
     environ = os.environ if environ is None else environ
-    return environ.get(SOURCE_VARIABLE) or default_install_target()
+    source = environ.get(SOURCE_VARIABLE)
+    if source:
+        return f"{source}[{RENDER_EXTRA}]" if render else source
+    return default_install_target(render)
 
 
-def setup_source() -> str:
+def render_functions() -> set:
+    """The names ``hoi_tutorial.viz.render`` exports that need pyvista (read from its ``__all__``)."""
+    tree = ast.parse(RENDER_MODULE.read_text())
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "__all__" for t in node.targets):
+            return set(ast.literal_eval(node.value)) - _RENDER_FREE
+    raise ValueError(f"{RENDER_MODULE}: expected an __all__ list")
+
+
+def uses_render(nb) -> bool:
+    """Whether a notebook's code (cell 1 aside) calls one of :func:`render_functions`."""
+    pattern = re.compile(r"\b(?:%s)\b" % "|".join(sorted(render_functions())))
+    return any(pattern.search(c.source) for c in nb.cells[1:] if c.cell_type == "code")
+
+
+def setup_source(render: bool = False) -> str:
     """The code of cell 1. It stays a no-op wherever ``hoi_tutorial`` imports; otherwise it installs
-    ``$HOI_TUTORIAL_SOURCE`` or the repository (IPython expands ``{source}`` in the ``%pip`` line)."""
-    return (
+    ``$HOI_TUTORIAL_SOURCE`` or the repository (IPython expands ``{source}`` in the ``%pip`` line), with the
+    ``render`` extra for a chapter that renders (``render``)."""
+    head = (
         "# Set-up for Colab: install the library only where it is missing (a no-op in CI and local builds).\n"
         f"# {SOURCE_VARIABLE}, when set, replaces the repository address (e.g. a local checkout).\n"
-        "try:\n"
+    )
+    if render:
+        head += f"# This chapter renders in 3D: the library comes with its {RENDER_EXTRA} extra (pyvista, VTK).\n"
+        choose = (f"    source = os.environ.get(\"{SOURCE_VARIABLE}\")\n"
+                  f"    source = source + \"[{RENDER_EXTRA}]\" if source else \"{default_install_target(True)}\"\n")
+    else:
+        choose = f"    source = os.environ.get(\"{SOURCE_VARIABLE}\") or \"{default_install_target()}\"\n"
+    return (
+        head
+        + "try:\n"
         "    import hoi_tutorial  # noqa: F401\n"
         "except ImportError:\n"
         "    import os\n"
-        f"    source = os.environ.get(\"{SOURCE_VARIABLE}\") or \"{default_install_target()}\"\n"
-        "    %pip install --quiet \"{source}\"\n"
+        + choose
+        + "    %pip install --quiet \"{source}\"\n"
     )
 
 
-def setup_cell():
-    return nbformat.v4.new_code_cell(setup_source(), metadata={"tags": list(SETUP_TAGS)})
+def setup_cell(render: bool = False):
+    return nbformat.v4.new_code_cell(setup_source(render), metadata={"tags": list(SETUP_TAGS)})
 
 
 def parameters_cell(extra: str = "") -> nbformat.NotebookNode:
@@ -82,7 +122,7 @@ def stamp(path: Path, check: bool = False) -> bool:
     cells = nb.cells
     first = cells[0] if cells else None
     is_setup = first is not None and "setup" in first.metadata.get("tags", [])
-    wanted = setup_cell()
+    wanted = setup_cell(uses_render(nb))
     if is_setup and first.source == wanted.source and first.metadata.get("tags") == wanted.metadata["tags"]:
         return False
     if check:

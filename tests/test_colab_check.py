@@ -47,11 +47,12 @@ class _RecordingShell:
         self.magics.append((name, DollarFormatter().vformat(line, args=[], kwargs=self.namespace)))
 
 
-def _run_setup_cell(monkeypatch, importable):
-    """Execute the stamped set-up cell as IPython would; return the line magics it ran."""
+def _run_setup_cell(monkeypatch, importable, render=False):
+    """Execute the stamped set-up cell (of a chapter that renders, with ``render``) as IPython would; return the
+    line magics it ran."""
     from IPython.core.inputtransformer2 import TransformerManager
 
-    code = TransformerManager().transform_cell(notebook_cells.setup_source())
+    code = TransformerManager().transform_cell(notebook_cells.setup_source(render))
     if not importable:
         monkeypatch.setitem(sys.modules, "hoi_tutorial", None)  # makes `import hoi_tutorial` fail
     namespace = {}
@@ -87,6 +88,42 @@ def test_install_target_matches_the_cell(monkeypatch):
     monkeypatch.setenv(notebook_cells.SOURCE_VARIABLE, "/a/checkout")
     assert _run_setup_cell(monkeypatch, importable=False)[0][1] == (
         f'install --quiet "{notebook_cells.install_target()}"')
+
+
+def test_a_chapter_that_renders_installs_the_render_extra_and_only_it(monkeypatch):
+    """Chapters calling hoi_tutorial.viz.render's functions install ``hoi_tutorial[render]`` (pyvista, VTK); the
+    others install the core alone, from the repository or from ``$HOI_TUTORIAL_SOURCE`` alike."""
+    monkeypatch.delenv(notebook_cells.SOURCE_VARIABLE, raising=False)
+    assert _run_setup_cell(monkeypatch, importable=False, render=True) == [
+        ("pip", f'install --quiet "{notebook_cells.default_install_target(True)}"')]
+    assert notebook_cells.default_install_target(True).startswith(DEFAULT_URL.replace("hoi_tutorial", "hoi_tutorial[render]"))
+    monkeypatch.setenv(notebook_cells.SOURCE_VARIABLE, "/a/checkout")
+    assert _run_setup_cell(monkeypatch, importable=False, render=True) == [("pip", 'install --quiet "/a/checkout[render]"')]
+    assert notebook_cells.install_target(render=True) == "/a/checkout[render]"
+    assert notebook_cells.install_target({}, render=True) == notebook_cells.default_install_target(True)
+    assert {"render_scene", "render_body", "render_objects_grid"} <= notebook_cells.render_functions()
+    assert "show_image" not in notebook_cells.render_functions()  # draws an array: no pyvista
+    rendering = {p.name[:2] for p in sorted((REPO_ROOT / "notebooks").glob("*.ipynb"))
+                 if notebook_cells.uses_render(nbformat.read(p, as_version=4))}
+    assert "01" in rendering and "02" not in rendering and "19" not in rendering
+    for p in sorted((REPO_ROOT / "notebooks").glob("*.ipynb")):
+        first = nbformat.read(p, as_version=4).cells[0].source
+        assert ("[render]" in first) == (p.name[:2] in rendering), p.name
+
+
+def test_the_core_install_brings_no_test_book_or_render_package():
+    """What a chapter's set-up cell installs without an extra: ``[project] dependencies``. The 3D renders, the
+    tests and the book build are extras; packages the project never imports are in neither."""
+    import tomllib
+    from packaging.requirements import Requirement
+
+    project = tomllib.loads((REPO_ROOT / "pyproject.toml").read_text())["project"]
+    core = {Requirement(r).name.lower() for r in project["dependencies"]}
+    assert not core & {"pyvista", "vtk", "pytest", "hypothesis", "nbval", "diffusers", "jupyter-book", "papermill",
+                       "ipywidgets", "safetensors"}
+    assert [Requirement(r).name for r in project["optional-dependencies"]["render"]] == ["pyvista"]
+    for name in ("pytest", "hypothesis", "nbval", "diffusers"):
+        assert any(Requirement(r).name == name for r in project["optional-dependencies"]["test"])
 
 
 def test_every_chapter_has_the_current_setup_cell():
@@ -158,12 +195,12 @@ def _imported_modules():
     modules = {}
     for path in sorted((REPO_ROOT / "src" / "hoi_tutorial").rglob("*.py")):
         for module in _top_level_imports(path.read_text()):
-            modules.setdefault(module, path.name)
+            modules.setdefault(module, set()).add(path.name)
     for path in sorted((REPO_ROOT / "notebooks").glob("*.ipynb")):
         for cell in nbformat.read(path, as_version=4).cells:
             if cell.cell_type == "code":
                 for module in _top_level_imports(transform(cell.source)):
-                    modules.setdefault(module, path.name)
+                    modules.setdefault(module, set()).add(path.name)
     return {m: where for m, where in modules.items() if m not in sys.stdlib_module_names and m != "hoi_tutorial"}
 
 
@@ -198,12 +235,15 @@ def test_declared_dependencies_cover_every_import():
 
     project = tomllib.loads((REPO_ROOT / "pyproject.toml").read_text())["project"]
     declared = _installed_closure(Requirement(r).name for r in project["dependencies"])
+    # the render extra's packages (pyvista, VTK) only in the module whose renders need them
+    render = _installed_closure(Requirement(r).name for r in project["optional-dependencies"]["render"])
     providers = importlib.metadata.packages_distributions()
     missing = []
     for module, where in sorted(_imported_modules().items()):
         distributions = {_normalise(d) for d in providers.get(module, [])}
-        if not distributions & declared:
-            missing.append(f"{module} (imported in {where}; provided by {sorted(distributions) or 'nothing installed'})")
+        if not distributions & declared and not (distributions & render and where == {"render.py"}):
+            missing.append(f"{module} (imported in {', '.join(sorted(where))}; provided by "
+                           f"{sorted(distributions) or 'nothing installed'})")
     assert not missing, "imported but not in [project] dependencies: " + "; ".join(missing)
 
 

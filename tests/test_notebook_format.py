@@ -44,7 +44,8 @@ def test_notebook_conventions(path):
     nb = nbformat.read(path, as_version=4)
     code = [c for c in nb.cells if c.cell_type == "code"]
     assert all(not c.outputs and c.execution_count is None for c in code), "notebook has stored outputs"
-    assert nb.cells[0].source == notebook_cells.setup_source(), "cell 1 is not the current set-up cell"
+    assert nb.cells[0].source == notebook_cells.setup_source(notebook_cells.uses_render(nb)), \
+        "cell 1 is not the current set-up cell"
     assert "hide-cell" in nb.cells[0].metadata.get("tags", [])
     second = nb.cells[1]
     assert "parameters" in second.metadata.get("tags", []), "cell 2 must be papermill's parameters cell"

@@ -50,7 +50,8 @@ def _import_pyvista():
     try:
         import pyvista
     except ImportError as exc:  # pragma: no cover - depends on the installation
-        raise ImportError("render functions need pyvista: pip install pyvista") from exc
+        raise ImportError("hoi_tutorial.viz.render needs pyvista, the render extra: "
+                          "pip install 'hoi_tutorial[render]' (or pip install pyvista)") from exc
     pyvista.OFF_SCREEN = True
     return pyvista
 
