@@ -14,7 +14,6 @@ caches), so the two ratios differ.
 """
 import argparse
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
@@ -40,39 +39,18 @@ def main():
     model = ctrl_network.build_controller(config, pae).eval()
     clip = mocap.generate_dataset(1, seed=0, kinds=("reach_grasp",))
     state, goal = runtime.initial_state(model, clip), runtime.clip_goal(model, clip)
-    runtime.rollout(model, state, goal, 20, args.variant)  # warm-up
-    inside = []  # the network's own seconds within the rollout: a timer around each forward
-
-    def timed(x, forward=model.forward):
-        t = time.perf_counter()
-        y = forward(x)
-        inside.append(time.perf_counter() - t)
-        return y
-
     with threads_allowed(args.threads):
-        t0 = time.perf_counter()
-        runtime.rollout(model, state, goal, args.steps, args.variant)
-        seconds = time.perf_counter() - t0
-        model.forward = timed
-        runtime.rollout(model, state, goal, args.steps, args.variant)
-        del model.forward
-    x = torch.zeros(1, model.in_size)
-    with torch.no_grad(), threads_allowed(args.threads):
-        t0 = time.perf_counter()
-        for _ in range(args.steps):
-            model(x)
-        network = time.perf_counter() - t0
-    in_step = sum(inside)
+        timing = runtime.step_timing(model, state, goal, args.steps, args.variant)
     print(f"controller ({args.scale}, {sum(p.numel() for p in model.net.parameters()):,} parameters, "
           f"{args.threads} thread(s)), goal phase '{args.variant}', batch 1, {args.steps} steps")
     print(f"  whole step (network, FK, Eq. 14 blend, Eq. 22 deviation, Eqs. 15-16, filter): "
-          f"{args.steps / seconds:6.0f} steps/s  ({1e3 * seconds / args.steps:.3f} ms)")
+          f"{timing['steps_per_second']:6.0f} steps/s  ({timing['step_ms']:.3f} ms)")
     print(f"  the network alone, one forward after another:                         "
-          f"{args.steps / network:6.0f} steps/s  ({1e3 * network / args.steps:.3f} ms)")
+          f"{1e3 / timing['network_ms']:6.0f} steps/s  ({timing['network_ms']:.3f} ms)")
     print(f"  the network inside the step (a second rollout, timed around each forward): "
-          f"{1e3 * in_step / args.steps:.3f} ms")
-    print(f"  step / network alone: {seconds / network:.1f}x   step / network inside the step: "
-          f"{seconds / in_step:.1f}x   (CHOICE III's target: 2x the network alone)")
+          f"{timing['network_in_step_ms']:.3f} ms")
+    print(f"  step / network alone: {timing['ratio']:.1f}x   step / network inside the step: "
+          f"{timing['ratio_in_step']:.1f}x   (CHOICE III's target: 2x the network alone)")
     print("  target: 600 steps/s (10x the paper's 60 fps)")
 
 

@@ -388,3 +388,20 @@ def test_the_gating_compares_key_joint_transformations_and_phases(trained):
         changed = x.clone()
         changed[:, index] += 5 * model.x_std[index]
         torch.testing.assert_close(weights(changed), base, atol=0, rtol=0, msg=name)
+
+
+def test_step_timing_times_the_step_and_the_network_and_leaves_the_model_as_it_was(trained, start):
+    """``runtime.step_timing`` (what the bench and chapter 19 print): every timing positive and consistent, the
+    network's forward put back afterwards (no instance attribute left), and the same rollout after it."""
+    model = trained.model
+    before = runtime.rollout(model, *start, 5, "kalman").joints
+    timing = runtime.step_timing(model, *start, steps=5)
+    assert set(timing) == {"step_ms", "network_ms", "network_in_step_ms", "steps_per_second", "ratio", "ratio_in_step"}
+    assert all(v > 0 for v in timing.values())
+    # the step contains the network: it costs more than the network's share inside it
+    assert timing["step_ms"] > timing["network_in_step_ms"] and timing["ratio_in_step"] > 1
+    assert timing["steps_per_second"] == pytest.approx(1e3 / timing["step_ms"])
+    assert "forward" not in vars(model)
+    assert torch.equal(runtime.rollout(model, *start, 5, "kalman").joints, before)
+    with pytest.raises(ValueError, match="steps: expected a positive int"):
+        runtime.step_timing(model, *start, steps=0)

@@ -10,6 +10,7 @@ of ``kalman`` among them.
 """
 from __future__ import annotations
 
+import time
 from typing import NamedTuple, Optional
 
 import numpy as np
@@ -29,7 +30,7 @@ from .features import (FUTURE_OFFSETS, KEY_JOINTS, PAST, SAMPLE_STEP, TRANSFORM,
 from .network import ControllerConfig, ControllerNet
 
 __all__ = ["ControllerState", "KeyJointGoal", "initial_state", "clip_goal", "toward_goal", "phase_filter_config",
-           "phase_update", "controller_step", "Rollout", "rollout"]
+           "phase_update", "controller_step", "Rollout", "rollout", "step_timing"]
 
 class ControllerState(NamedTuple):
     """The characters' state between two frames (``B`` characters).
@@ -354,3 +355,47 @@ def rollout(model: ControllerNet, state: ControllerState, goal: KeyJointGoal, fr
         records.append((out["joints"], out["wrist"], state.origin, fed, out["goal_phase_state"], out["deviation"]))
     joints, wrist, origin, fed, predicted, deviation = (torch.stack(v) for v in zip(*records))
     return Rollout(joints, wrist, origin, fed, predicted, deviation, state)
+
+
+def step_timing(model: ControllerNet, state: ControllerState, goal: KeyJointGoal, steps: int = 300,
+                variant: str = "kalman") -> dict:
+    """What one run-time step costs against the network alone, on this machine and its current torch threads.
+
+    Three timings of ``steps`` frames each, after a 20-frame warm-up: a :func:`rollout` (the whole step: network,
+    forward kinematics, Eq. 14's blend, Eq. 22's deviation, Eqs. 15–16, the filter of ``variant``); the same rollout
+    with a timer around each forward (the network inside the step); the network's forward alone, one after another
+    on a zero input. A measurement, never a gate (``scripts/bench_choice_controller.py`` prints it).
+
+    Returns:
+        ``{"step_ms", "network_ms", "network_in_step_ms", "steps_per_second", "ratio", "ratio_in_step"}``: the
+        milliseconds per frame, the whole step's frames a second, and the step over the network alone and over
+        the network inside the step.
+    """
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+        raise ValueError(f"steps: expected a positive int, got {steps!r}")
+    rollout(model, state, goal, 20, variant)  # warm-up
+    clock = time.perf_counter()
+    rollout(model, state, goal, steps, variant)
+    step = (time.perf_counter() - clock) / steps
+    inside = []
+
+    def timed(x, forward=model.forward):
+        t = time.perf_counter()
+        y = forward(x)
+        inside.append(time.perf_counter() - t)
+        return y
+
+    model.forward = timed  # an instance attribute: nn.Module's __call__ finds it first
+    try:
+        rollout(model, state, goal, steps, variant)
+    finally:
+        del model.forward
+    x = torch.zeros(state.origin.shape[0], model.in_size)
+    with torch.inference_mode():
+        clock = time.perf_counter()
+        for _ in range(steps):
+            model(x)
+        network = (time.perf_counter() - clock) / steps
+    in_step = sum(inside) / steps
+    return {"step_ms": 1e3 * step, "network_ms": 1e3 * network, "network_in_step_ms": 1e3 * in_step,
+            "steps_per_second": 1.0 / step, "ratio": step / network, "ratio_in_step": step / in_step}
