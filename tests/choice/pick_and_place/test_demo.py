@@ -221,6 +221,13 @@ def test_errors_name_what_was_expected(run0):
             pp.cabinet_kitchen(bad)
     with pytest.raises(ValueError, match="config: expected a PickAndPlaceConfig"):
         pp.pick_and_place(0, config={"n_starts": 2})
+    with pytest.raises(TypeError, match="planner: expected a PlannerConfig \\(planner_config\\)"):
+        pp.PickAndPlaceConfig(planner={"inits": 3})
+    with pytest.raises(TypeError, match="planner_data: expected a PlannerDataConfig"):
+        pp.pick_and_place_config(planner_data=None)
+    from hoi_tutorial.choice.pick_and_place import hand_paths
+    with pytest.raises(ValueError, match="planner: expected an ApproachPlanner"):
+        hand_paths.planned_approach(None, None, [], np.zeros(3), np.zeros(3), "left", "grasp", grid_yaw=0.0)
     with pytest.raises(ValueError, match="n_starts: expected a positive int"):
         pp.pick_and_place_config(n_starts=0)
     with pytest.raises(ValueError, match="durations: expected 9 positive numbers"):

@@ -7,7 +7,7 @@ import torch
 from hoi_tutorial.choice.controller import phase
 from hoi_tutorial.choice.controller.features import WINDOW, WINDOW_OFFSETS, key_joint_transforms
 from hoi_tutorial.choice.controller.runtime import KeyJointGoal
-from hoi_tutorial.choice.pick_and_place import environment, table4
+from hoi_tutorial.choice.pick_and_place import environment, hand_paths, table4
 from hoi_tutorial.choice.planner import interactions, intp
 from hoi_tutorial.world import mocap
 
@@ -90,7 +90,7 @@ def test_the_planned_approach_runs_from_the_window_start_to_the_grasp_point(tiny
     config, model, _, library, _, windows, test = tiny
     data = interactions.planner_data_config("toy", n_clips=2, n_test_clips=1)
     planner_config = intp.planner_config("toy", width=48, latent=8, steps=200, batch_size=4, fit_steps=20)
-    planner = table4.trained_approach_planner(data, planner_config)
+    planner = hand_paths.trained_approach_planner(data, planner_config)
     scenes = [table4.reach_scene(c) for c in test]
     matched = table4.matched_goals(scenes, library, model, windows, config)
     planned, plans = table4.planned_approach_goal(matched.goal, scenes, planner, seed=0)

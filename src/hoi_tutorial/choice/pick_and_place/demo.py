@@ -97,7 +97,9 @@ from . import goal_library, locomotion, navigation, scheduler
 from .checks import body_distances, body_points, evaluate, handle_at
 from .environment import EnvironmentConfig, KeyPose
 from .goal_library import LibraryConfig
-from .hand_paths import hand_planner
+from ..planner.interactions import planner_data_config
+from ..planner.intp import planner_config
+from .hand_paths import trained_approach_planner
 from .motion_pieces import (attach_bottle, exit_point, hold_arm, last_pose, pelvis_yaw, plan_at_cabinet,
                                     plan_at_table, settle, walk)
 from .navigation import NavigationConfig
@@ -128,11 +130,12 @@ PICK_AND_PLACE_SCALES: dict = {}  # nothing of the demo's own scales; its pieces
 
 
 def pick_and_place_config(scale: str = "toy", **overrides) -> PickAndPlaceConfig:
-    """The preset for ``scale`` (its navigation, environment, library and scheduler configurations those of the
-    same scale), fields overridable."""
+    """The preset for ``scale`` (its navigation, environment, library, scheduler and planner configurations those of
+    the same scale), fields overridable."""
     check_scale(scale, "pick_and_place_config: scale")
     fixed = {"navigation": navigation.navigation_config(scale), "environment": env.environment_config(scale),
-             "library": goal_library.library_config(scale), "scheduler": scheduler.scheduler_config(scale)}
+             "library": goal_library.library_config(scale), "scheduler": scheduler.scheduler_config(scale),
+             "planner_data": planner_data_config(scale), "planner": planner_config(scale)}
     fixed = {k: v for k, v in fixed.items() if k not in overrides}
     return scaled_config(PickAndPlaceConfig, scale, PICK_AND_PLACE_SCALES, overrides,
                          factory="pick_and_place_config", fixed=fixed)
@@ -287,7 +290,8 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
     if hands["door"] == hands["bottle"]:
         # one hand does both (sequential): the demo is the co-temporal case of the paper; say so
         raise ValueError(f"schedule: expected a co-temporal schedule, Eq. 24 chose {chosen.schedule.name}")
-    setting = DemoSetting(body, task, hands, config, hand_planner("toy"), seed)  # §4's planner plans the hands
+    planner = trained_approach_planner(config.planner_data, config.planner)  # §4's planner plans the hands
+    setting = DemoSetting(body, task, hands, config, planner, seed)
     g = setting.bottle_side
     walk_goal = scheduler.keyframes(task, chosen)[0].position[:2]  # the first matched keyframe's pelvis
     stance_xy, heading, bend1, stance_source = open_stance(setting, cabinet, walk_goal, grid, rng)

@@ -13,6 +13,8 @@ import numpy as np
 from ...world.mocap.body_plan import SIDES, PlanBody
 from ...world.motion import Motion
 from ...world.scenes import Kitchen
+from ..planner.interactions import PlannerDataConfig
+from ..planner.intp import PlannerConfig
 from .environment import EnvironmentConfig
 from .goal_library import LibraryConfig
 from .navigation import NavigationConfig
@@ -52,6 +54,9 @@ class PickAndPlaceConfig:
             holds the opened door on its own side (``scheduler.cheapest_uncrossed``; ours, see the module's
             docstring).
         navigation, environment, library, scheduler: the configurations of the pieces used.
+        planner_data, planner: §4's planner that plans the hands' approaches (``hand_paths``): its interactions'
+            and its own configuration (chapter 16's; ``planner.interactions.planner_data_config``,
+            ``planner.intp.planner_config``).
     """
 
     n_starts: int = 6
@@ -71,6 +76,8 @@ class PickAndPlaceConfig:
     environment: EnvironmentConfig = EnvironmentConfig()
     library: LibraryConfig = LibraryConfig()
     scheduler: SchedulerConfig = SchedulerConfig()
+    planner_data: PlannerDataConfig = PlannerDataConfig()
+    planner: PlannerConfig = PlannerConfig()
 
     def __post_init__(self):
         if isinstance(self.n_starts, bool) or not isinstance(self.n_starts, int) or self.n_starts < 1:
@@ -97,6 +104,10 @@ class PickAndPlaceConfig:
             raise ValueError(f"style: expected 'squat' or 'stoop', got {self.style!r}")
         if self.hands not in ("eq24", "uncrossed"):
             raise ValueError(f"hands: expected 'eq24' or 'uncrossed', got {self.hands!r}")
+        for name, kind, factory in (("planner_data", PlannerDataConfig, "planner_data_config"),
+                                    ("planner", PlannerConfig, "planner_config")):
+            if not isinstance(getattr(self, name), kind):
+                raise TypeError(f"{name}: expected a {kind.__name__} ({factory}), got {type(getattr(self, name)).__name__}")
 
 
 @dataclass(eq=False)
@@ -160,7 +171,7 @@ class DemoSetting:
         task: the scheduler's task (the bottle ``target``, the door ``auxiliary``, the opening and the carry point).
         hands: ``{"door": side, "bottle": side}``, each ``"left"`` or ``"right"``.
         config: the demo's :class:`PickAndPlaceConfig`.
-        planner: the §4 planner the hands' approaches are planned with (``hand_paths.hand_planner``).
+        planner: the §4 planner the hands' approaches are planned with (``hand_paths.trained_approach_planner``).
         seed: the run's seed (the planner's latent initialisations).
     """
 

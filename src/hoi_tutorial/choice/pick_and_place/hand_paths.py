@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -30,13 +31,13 @@ import torch
 from ..._validate import check_shape
 from ..planner import fields, interactions, intp
 
-__all__ = ["HandPlanner", "hand_planner", "HandPath", "planned_approach", "path_clearance"]
+__all__ = ["ApproachPlanner", "trained_approach_planner", "HandPath", "planned_approach", "path_clearance"]
 
 
-@dataclass(frozen=True)
-class HandPlanner:
-    """The trained §4 planner the demo plans with: the auto-decoder ``model`` and its ``config``, the training
-    interactions ``dataset`` (the priors of Eq. 11–12 are matched among them) and the fields' constants ``field``."""
+class ApproachPlanner(NamedTuple):
+    """§4's implicit planner as §6's scenes use it (the demo's hands, Table 4's re-planned approaches): the trained
+    auto-decoder, its configuration, the interactions it was trained on (the priors of Eqs. 11–12 are matched among
+    them) and the field configuration of its grids."""
 
     model: intp.AutoDecoder
     config: intp.PlannerConfig
@@ -44,13 +45,12 @@ class HandPlanner:
     field: fields.FieldConfig
 
 
-def hand_planner(scale: str = "toy", device="cpu") -> HandPlanner:
+def trained_approach_planner(data_config: interactions.PlannerDataConfig,
+                             config: intp.PlannerConfig) -> ApproachPlanner:
     """The planner of chapter 16 (``intp.trained_planner`` through the artifact cache: trained once, then loaded)
     with its training interactions."""
-    data_config = interactions.planner_data_config(scale)
-    config = intp.planner_config(scale)
-    model = intp.trained_planner(data_config, config, device=device).model.cpu().eval()
-    return HandPlanner(model, config, interactions.interaction_set(data_config, "train"), data_config.field)
+    return ApproachPlanner(intp.trained_planner(data_config, config).model, config,
+                           interactions.interaction_set(data_config, "train"), data_config.field)
 
 
 @dataclass
@@ -93,12 +93,12 @@ def path_clearance(path, obstacles) -> float:
     return float(np.min(np.asarray(fields.sdf_union(list(obstacles))(np.asarray(path, dtype=np.float64)))))
 
 
-def planned_approach(planner: HandPlanner, target, obstacles, wrist, contact, hand: str, action: str, *,
+def planned_approach(planner: ApproachPlanner, target, obstacles, wrist, contact, hand: str, action: str, *,
                      grid_yaw: float, seed: int = 0) -> HandPath:
     """Plan the wrist's approach to ``contact`` on ``target`` among ``obstacles`` (the algorithm box above).
 
     Args:
-        planner: :func:`hand_planner`.
+        planner: :func:`trained_approach_planner`.
         target: the object the hand goes to (a ``ToyObject``; for a place, the item where it will stand).
         obstacles: the scene's other things (objects with ``.sdf``).
         wrist: (3,) the wrist where the approach starts, metres. contact: (3,) the grasp or release point.
@@ -111,8 +111,8 @@ def planned_approach(planner: HandPlanner, target, obstacles, wrist, contact, ha
     Raises:
         ValueError: a contact outside the grid or inside an obstacle (``intp.plan_each_init``).
     """
-    if not isinstance(planner, HandPlanner):
-        raise ValueError(f"planner: expected a HandPlanner (hand_planner), got {type(planner).__name__}")
+    if not isinstance(planner, ApproachPlanner):
+        raise ValueError(f"planner: expected an ApproachPlanner (trained_approach_planner), got {type(planner).__name__}")
     wrist, contact = (np.asarray(v, dtype=np.float64) for v in (wrist, contact))
     check_shape(wrist, (3,), "wrist")
     check_shape(contact, (3,), "contact")

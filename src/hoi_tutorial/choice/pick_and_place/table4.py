@@ -65,10 +65,10 @@ from . import environment as env
 from . import goal_library
 from .environment import HANDS, EnvironmentConfig, floor_sdf, goal_frame
 from .goal_library import GoalLibrary
+from .hand_paths import ApproachPlanner, trained_approach_planner
 
 __all__ = ["TABLE4_ROWS", "ReachScene", "reach_scene", "KeyframeWindow", "reach_library", "MatchedGoals",
-           "matched_goals", "reach_goals", "ApproachPlanner",
-           "trained_approach_planner", "planned_approach_goal", "straight_approach_goal", "table4_runs"]
+           "matched_goals", "reach_goals", "planned_approach_goal", "straight_approach_goal", "table4_runs"]
 
 TABLE4_ROWS = ("w/ KF + cuRobo", "w/o goal phase", "w/ matched goal", "w/ predicted goal", "w/ KF goal")
 _ROW_VARIANT = {"w/ KF + cuRobo": "kalman", "w/o goal phase": "none", "w/ matched goal": "matched",
@@ -212,23 +212,6 @@ def reach_goals(model: network.ControllerNet, controller_config: network.Control
     library, windows = reach_library([c for c in train if c.meta.get("kind") == "reach_grasp"], env_model,
                                      model.phase_model, environment)
     return matched_goals([reach_scene(c) for c in clips], library, env_model, windows, environment)
-
-
-class ApproachPlanner(NamedTuple):
-    """§4's implicit planner as Table 4 uses it: the trained auto-decoder, its configuration, the interactions it
-    was trained on (its priors) and the field configuration of its grids."""
-
-    model: intp.AutoDecoder
-    config: intp.PlannerConfig
-    dataset: interactions.InteractionSet
-    field: fields.FieldConfig
-
-
-def trained_approach_planner(data_config: interactions.PlannerDataConfig,
-                             config: intp.PlannerConfig) -> ApproachPlanner:
-    """The planner of chapter 16 (``intp.trained_planner``, cached) with its training interactions."""
-    return ApproachPlanner(intp.trained_planner(data_config, config).model, config,
-                           interactions.interaction_set(data_config, "train"), data_config.field)
 
 
 def planned_approach_goal(goal: runtime.KeyJointGoal, scenes, planner: ApproachPlanner, *, seed: int = 0):
