@@ -28,8 +28,9 @@ The algorithm box, as this module runs it (:func:`pick_and_place`):
    while the door's edge passes, then steps (``world.mocap.standing.step_feet``) behind the door to B; the
    other hand, waiting in front of the belly, reaches the bottle's grasp point along the path §4's planner
    plans in this kitchen (``hand_paths.planned_approach``: the fields around the bottle with the opened cabinet
-   as an obstacle, Eqs. 9–11), grasps, and takes the bottle out along its way (grasp point → lifted → ``task.carry``); the door hand lets go (the door stays open); the body stands up
-   and steps back to a free floor cell while the bottle is brought out and up in front of it.
+   as an obstacle, Eqs. 9–11), grasps, and takes the bottle out along its way (grasp point → lifted →
+   ``task.carry``); the door hand lets go (the door stays open); the body stands up and steps back to a free
+   floor cell while the bottle is brought out and up in front of it.
 6. **Carry** (§6.2 again): the walk to a stance at the table edge nearest the cabinet, on the floor grid of
    the kitchen with the door open, the carrying arm held by IK at ``hold`` in the body's heading frame.
 7. **Place and release** (Fig. 6): the bottle is lowered onto a free spot of the table top along the path §4's
@@ -44,9 +45,9 @@ Choices that are ours (the paper does not state them, or we simplify):
 
 - **The body is not driven by the §5.1 controller.** The arms are posed by two-bone IK
   (``world.kinematics.solve_limb_ik``, through ``world.mocap.body_plan.plan_to_motion``) on the scheduled
-  keyframes and the wrist paths (the planner's two approaches; ours for the handle, the way out and the hold); the trunk bends (``world.mocap.standing.choose_bend``) so that the
-  shoulders reach; the feet are planted except for the steps at the cabinet (A → B, B → the walk's start)
-  and the walks. The mixture-of-experts controller of §5.1 (``choice.controller``) is evaluated
+  keyframes and the wrist paths (the planner's two approaches; ours for the handle, the way out and the hold);
+  the trunk bends (``world.mocap.standing.choose_bend``) so that the shoulders reach; the feet are planted
+  except for the steps at the cabinet (A → B, B → the walk's start) and the walks. The mixture-of-experts controller of §5.1 (``choice.controller``) is evaluated
   separately (Table 4) and plays no part here; nor does §6.2's phase-driven interaction motion.
   :func:`controller_at_cabinet` rolls the toy controller out toward the demo's handle keyframe to show why.
 - **The matched keyframes** give the schedule, the hands and the walk goal; their poses are not imitated
@@ -92,13 +93,13 @@ from ...world.objects import make_object
 from ...world.scenes import Kitchen, make_kitchen
 from ...world.skeleton import joint_index
 from ..controller import features, network, runtime
+from ..planner.interactions import planner_data_config
+from ..planner.intp import planner_config
 from . import environment as env
 from . import goal_library, locomotion, navigation, scheduler
 from .checks import body_distances, body_points, evaluate, handle_at
 from .environment import EnvironmentConfig, KeyPose
 from .goal_library import LibraryConfig
-from ..planner.interactions import planner_data_config
-from ..planner.intp import planner_config
 from .hand_paths import trained_approach_planner
 from .motion_pieces import (attach_bottle, exit_point, hold_arm, last_pose, pelvis_yaw, plan_at_cabinet,
                                     plan_at_table, settle, walk)

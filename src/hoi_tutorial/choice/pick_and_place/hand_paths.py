@@ -13,8 +13,9 @@ The algorithm box, as this module runs it (:func:`planned_approach`):
    (Eq. 10) and land on the contact; the wrist goes straight from where it is to ``x_s`` first
    (``WristPlan.from_wrist``: CHOICE leaves that stretch to the controller). The path's least distance to the
    obstacles is recorded.
-3. **Time** (ours): the hand moves along the planned path in the phase's frames, minimum-jerk in arc length, as the
-   demo's other hand paths; the planner's own pace (``v̄`` a frame) sets the shape, not the duration.
+3. **Time** (ours, in ``motion_pieces``): the hand moves along the planned path in the phase's frames, minimum-jerk
+   in arc length (``motion_pieces.along_path``), as the demo's other hand paths; the planner's own pace (``v̄`` a
+   frame) sets the shape, not the duration.
 
 The minimum-jerk planner (``planner.baselines.minimum_jerk_plan``, CHOICE's cuRobo stand-in) is a baseline of
 Table 3 only; no hand of the demo follows it.
@@ -63,7 +64,7 @@ class HandPath:
         clearance: the path's least distance to the obstacles, metres.
         fit_loss: (inits,) each initialisation's final Eq. 9 loss (the least one's code is played).
         prior_index: the matched training interaction.
-        seconds: the planning time (the fit and every initialisation's integration).
+        seconds: the planning time (the fit and the best code's integration).
     """
 
     path: np.ndarray
@@ -73,19 +74,11 @@ class HandPath:
     prior_index: int
     seconds: float
 
-    def timed(self, frames: int, timing) -> np.ndarray:
-        """(frames, 3) the wrist along :attr:`path` at arc-length fractions ``timing(u)`` of ``u`` in [0, 1]."""
-        u = np.arange(frames) / max(frames - 1, 1)
-        s = np.clip(np.asarray(timing(u), dtype=np.float64), 0.0, 1.0)
-        lengths = np.linalg.norm(np.diff(self.path, axis=0), axis=1)
-        cum = np.concatenate([[0.0], np.cumsum(lengths)]) / max(float(lengths.sum()), 1e-12)
-        return np.stack([np.interp(s, cum, self.path[:, k]) for k in range(3)], axis=-1)
-
     def as_record(self) -> dict:
         """Plain numbers for the artifact cache and the chapter's tables."""
         return {"path": self.path.tolist(), "start": self.start.tolist(), "clearance": float(self.clearance),
-                "fit_loss": self.fit_loss.tolist(),
-                "prior_index": int(self.prior_index), "seconds": float(self.seconds)}
+                "fit_loss": self.fit_loss.tolist(), "prior_index": int(self.prior_index),
+                "seconds": float(self.seconds)}
 
 
 def path_clearance(path, obstacles) -> float:
@@ -112,7 +105,8 @@ def planned_approach(planner: ApproachPlanner, target, obstacles, wrist, contact
         ValueError: a contact outside the grid or inside an obstacle (``intp.plan_each_init``).
     """
     if not isinstance(planner, ApproachPlanner):
-        raise ValueError(f"planner: expected an ApproachPlanner (trained_approach_planner), got {type(planner).__name__}")
+        raise ValueError("planner: expected an ApproachPlanner (trained_approach_planner), got "
+                         f"{type(planner).__name__}")
     wrist, contact = (np.asarray(v, dtype=np.float64) for v in (wrist, contact))
     check_shape(wrist, (3,), "wrist")
     check_shape(contact, (3,), "contact")

@@ -222,12 +222,11 @@ def plan_at_cabinet(setting: DemoSetting, stance_a: Stance, stance_b: Stance, ex
     n_wait = waiting.stop - waiting.start
     hand_on_point(plan, waiting, g, rest[waiting], smoothstep(np.arange(n_wait) / min(20, n_wait)))
     # in: the approach §4's planner plans in this scene (hand_paths), minimum-jerk along it
-    opened = cabinet.with_params(door_angle=q_full)
-    kitchen = task.kitchen
-    others = [f for f in kitchen.furniture if f is not cabinet] + list(kitchen.items[1:]) + list(kitchen.obstacles)
-    bottle_path = planned_approach(setting.planner, task.kitchen.items[0], [opened] + others, rest[waiting.stop - 1],
-                                   contact, SIDES[g], "grasp", grid_yaw=_yaw(cabinet), seed=setting.seed)
-    hand_on_point(plan, span["reach bottle"], g, bottle_path.timed(reach, min_jerk), np.ones(reach))
+    bottle_path = planned_approach(setting.planner, task.kitchen.items[0], _door_open_scene(task),
+                                   rest[waiting.stop - 1], contact, SIDES[g], "grasp",
+                                   grid_yaw=env.object_yaw(cabinet), seed=setting.seed)
+    reaching = along_path(bottle_path.path, min_jerk(u["reach bottle"]))
+    hand_on_point(plan, span["reach bottle"], g, reaching, np.ones(reach))
     hand_on_point(plan, span["grasp bottle"], g, np.broadcast_to(contact, (grasp, 3)), np.ones(grasp))
     hand_on_point(plan, span["take out"], g, along_path(way, min_jerk(u["take out"])), np.ones(take_out))
     hand_on_point(plan, span["release door"], g, np.broadcast_to(carry, (release, 3)), np.ones(release))
@@ -248,9 +247,13 @@ def plan_at_cabinet(setting: DemoSetting, stance_a: Stance, stance_b: Stance, ex
     return CabinetPlan(plan, [(name, n) for name, n, _ in names], door, int(span["grasp bottle"].start), bottle_path)
 
 
-def _yaw(thing) -> float:
-    """The yaw (radians) of a furniture's or item's rotation about +Z."""
-    return float(np.arctan2(thing.rotation[1, 0], thing.rotation[0, 0]))
+def _door_open_scene(task) -> list:
+    """Everything in the task's kitchen but the bottle (item 0), the cabinet with its door at ``task.opening``: the
+    obstacles the hands' approaches are planned among."""
+    kitchen, cabinet = task.kitchen, task.kitchen.furniture_of("cabinet")
+    opened = cabinet.with_params(door_angle=float(task.opening))
+    return ([opened if f is cabinet else f for f in kitchen.furniture] + list(kitchen.obstacles)
+            + list(kitchen.items[1:]))
 
 
 def exit_point(scene, grid, xy, clearance: float) -> np.ndarray:
@@ -321,16 +324,14 @@ def plan_at_table(setting: DemoSetting, stance: Stance, bend: tuple, spot, place
     hold = hold_point(root, heading, side, config.hold)
     # down: the approach §4's planner plans to the spot, with the bottle where it will stand as the target
     kitchen, bottle = setting.task.kitchen, setting.task.kitchen.items[0]
-    table = kitchen.furniture_of("table")
-    cabinet = kitchen.furniture_of("cabinet")
     standing = np.array(bottle.pose)
-    standing[:3, :3] = rot_z(heading - _yaw(cabinet)) @ bottle.rotation  # turned with the body, as it is carried
+    # turned with the body, as it is carried
+    standing[:3, :3] = rot_z(heading - env.object_yaw(kitchen.furniture_of("cabinet"))) @ bottle.rotation
     standing[:3, 3] = spot
-    others = [f for f in kitchen.furniture if f is not cabinet]
-    others += [cabinet.with_params(door_angle=float(setting.task.opening))] + list(kitchen.items[1:]) + list(kitchen.obstacles)
-    place_path = planned_approach(setting.planner, bottle.with_pose(standing), others, hold, place_at, SIDES[side],
-                                  "place", grid_yaw=_yaw(table), seed=setting.seed)
-    hand_on_point(plan, slice(0, place), side, place_path.timed(place, min_jerk), np.ones(place))
+    place_path = planned_approach(setting.planner, bottle.with_pose(standing), _door_open_scene(setting.task), hold,
+                                  place_at, SIDES[side], "place",
+                                  grid_yaw=env.object_yaw(kitchen.furniture_of("table")), seed=setting.seed)
+    hand_on_point(plan, slice(0, place), side, along_path(place_path.path, min_jerk(u_place)), np.ones(place))
     back = place_at - 0.10 * forward_xyz(heading) + 0.04 * UP
     s = min_jerk(np.clip(u_go / 0.5, 0, 1))
     hand_on_point(plan, slice(place, T), side, along_path([place_at, back], s), 1.0 - smoothstep((u_go - 0.4) / 0.6))
