@@ -14,6 +14,8 @@ BENCH_ARGS ?=
 # The exact versions `make venv` installs (a pip constraints file; `make lock` regenerates it), used where the
 # environment's Python is the lock's (its header says which). Empty: resolve requirements.txt's lower bounds afresh.
 LOCK ?= requirements.lock
+# Extra flags for scripts/make_pack.py (`make artifacts`), e.g. ARTIFACTS_ARGS="--seed 1".
+ARTIFACTS_ARGS ?=
 # Chapters scripts/colab_check.py executes in a bare runtime (empty: its default, chapters 01 and 02).
 COLAB_CHAPTERS ?=
 # Seconds one cell of a chapter may run in `make book` and `make test`. A chapter's first code cell builds what
@@ -36,7 +38,7 @@ endif
 HYPOTHESIS_PROFILE ?= ci
 export HYPOTHESIS_PROFILE
 
-.PHONY: venv lock test unit-test unit-test-other-kernels test-fresh book bench colab-check clean strip
+.PHONY: venv lock test unit-test unit-test-other-kernels test-fresh book bench artifacts colab-check clean strip
 
 venv: $(STAMP)
 
@@ -98,6 +100,13 @@ book: venv
 
 bench: venv
 	PATH="$(VENV_BIN):$$PATH" $(PY) scripts/bench.py $(BENCH_ARGS)
+
+# A pretrained pack: every chapter run into build/artifacts/cache (toy scale, seed 0; a second run resumes), then
+# packed with its manifest into build/artifacts/hoi_tutorial-<version>-toy-seed0.zip (scripts/make_pack.py).
+# A chapter unpacks it with PRETRAINED = "<the pack's path or URL>"; `make bench BENCH_ARGS="--pretrained <pack>"`
+# times every chapter from it.
+artifacts: venv
+	PATH="$(VENV_BIN):$$PATH" $(PY) scripts/make_pack.py --timeout $(CELL_TIMEOUT) $(ARTIFACTS_ARGS)
 
 # Each chapter run the way a bare Colab runtime runs it: a fresh environment with only Colab's
 # packages, the library installed by the chapter's own set-up cell (from this checkout).

@@ -6,7 +6,9 @@ it is tagged ``hide-cell`` so the rendered book folds it away. The install addre
 ``HOI_TUTORIAL_SOURCE``, when set, replaces it with any other ``pip install`` target, e.g. the path
 of a local checkout (``make colab-check`` uses this). A chapter that calls ``hoi_tutorial.viz.render``'s
 renders installs the library with its ``render`` extra (pyvista and VTK); the others install the core alone.
-Cell 2 is papermill's ``parameters`` cell.
+Cell 2 is papermill's ``parameters`` cell; the tool adds its ``PRETRAINED`` line where it is missing. Cell 3,
+also hidden, unpacks a pretrained pack into the artifact cache when ``PRETRAINED`` asks for one
+(``hoi_tutorial.infra.use_pretrained``; off by default, in CI and in ``make book``).
 
 Usage: ``python scripts/notebook_cells.py notebooks/*.ipynb`` rewrites cell 1 of each notebook
 from the current ``_config.yml`` (and strips outputs); ``--check`` only reports differences.
@@ -102,6 +104,22 @@ def setup_source(render: bool = False) -> str:
     )
 
 
+# The parameter that asks for a pretrained pack, as the parameters cell states it (off by default).
+PRETRAINED_LINE = "PRETRAINED = False  # True: the release's pretrained pack (a download); or a pack's path or URL\n"
+PRETRAINED_TAGS = ["hide-cell", "pretrained"]
+
+
+def pretrained_source() -> str:
+    """The code of cell 3: unpack the pack ``PRETRAINED`` names (nothing when it is ``False``)."""
+    return (
+        "# A pretrained pack, only when PRETRAINED asks for one: its artifacts that the installed code built are\n"
+        "# unpacked into the cache, and the chapter loads them instead of building them.\n"
+        "from hoi_tutorial.infra import use_pretrained\n"
+        "\n"
+        "_pack = use_pretrained(PRETRAINED, scale=SCALE, seed=SEED)\n"
+    )
+
+
 def setup_cell(render: bool = False):
     return nbformat.v4.new_code_cell(setup_source(render), metadata={"tags": list(SETUP_TAGS)})
 
@@ -112,18 +130,38 @@ def parameters_cell(extra: str = "") -> nbformat.NotebookNode:
         'SCALE = "toy"  # "toy" (CPU, minutes), "small" or "paper"\n'
         "SEED = 0\n"
         'DEVICE = "auto"  # "auto" picks CUDA when present\n'
+        + PRETRAINED_LINE
     ) + extra
     return nbformat.v4.new_code_cell(source, metadata={"tags": ["parameters"]})
 
 
+def _with_pretrained_line(source: str) -> str:
+    """The parameters cell's source with :data:`PRETRAINED_LINE` (after the ``DEVICE`` line) where it lacks one."""
+    if re.search(r"^PRETRAINED\s*=", source, flags=re.M):
+        return source
+    lines = source.splitlines(keepends=True)
+    at = next((i + 1 for i, line in enumerate(lines) if line.startswith("DEVICE")), len(lines))
+    if at == len(lines) and lines and not lines[-1].endswith("\n"):
+        lines[-1] += "\n"
+    return "".join(lines[:at] + [PRETRAINED_LINE] + lines[at:])
+
+
 def stamp(path: Path, check: bool = False) -> bool:
-    """Make cell 1 the current set-up cell; return True when the file was (or would be) changed."""
+    """Make cell 1 the current set-up cell, give cell 2 its ``PRETRAINED`` line and cell 3 the current pretrained
+    cell; return True when the file was (or would be) changed."""
     nb = nbformat.read(path, as_version=4)
     cells = nb.cells
     first = cells[0] if cells else None
     is_setup = first is not None and "setup" in first.metadata.get("tags", [])
     wanted = setup_cell(uses_render(nb))
-    if is_setup and first.source == wanted.source and first.metadata.get("tags") == wanted.metadata["tags"]:
+    setup_ok = is_setup and first.source == wanted.source and first.metadata.get("tags") == wanted.metadata["tags"]
+    at = 1 if is_setup else 0  # where the parameters cell is now (cell 2 once the set-up cell is in place)
+    params = cells[at] if len(cells) > at and "parameters" in cells[at].metadata.get("tags", []) else None
+    params_ok = params is None or _with_pretrained_line(params.source) == params.source
+    third = cells[at + 1] if len(cells) > at + 1 and "pretrained" in cells[at + 1].metadata.get("tags", []) else None
+    third_ok = params is None or (third is not None and third.source == pretrained_source()
+                                  and third.metadata.get("tags") == PRETRAINED_TAGS)
+    if setup_ok and params_ok and third_ok:
         return False
     if check:
         return True
@@ -133,6 +171,14 @@ def stamp(path: Path, check: bool = False) -> bool:
         cells[0] = wanted
     else:
         cells.insert(0, wanted)
+    if params is not None:
+        params.source = _with_pretrained_line(params.source)
+        cell = nbformat.v4.new_code_cell(pretrained_source(), metadata={"tags": list(PRETRAINED_TAGS)})
+        if third is not None:
+            cell.id = third.id
+            cells[2] = cell
+        else:
+            cells.insert(2, cell)
     for cell in cells:
         if cell.cell_type == "code":
             cell.outputs = []

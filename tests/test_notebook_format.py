@@ -1,6 +1,6 @@
 """Every chapter follows the notebook conventions: stored without outputs, a hidden set-up cell
-first (installing from the repository named in _config.yml), papermill's parameters cell second,
-listed in the table of contents, and at least one assert on computed values."""
+first (installing from the repository named in _config.yml), papermill's parameters cell second (the
+pretrained pack off), the hidden pretrained-pack cell third, listed in the table of contents, and at least one assert on computed values."""
 import importlib.util
 from pathlib import Path
 
@@ -51,5 +51,28 @@ def test_notebook_conventions(path):
     assert "parameters" in second.metadata.get("tags", []), "cell 2 must be papermill's parameters cell"
     for name in ("SCALE", "SEED", "DEVICE"):
         assert f"{name} =" in second.source, f"parameters cell lacks {name}"
+    assert notebook_cells.PRETRAINED_LINE in second.source, "the pretrained pack is off by default"
+    third = nb.cells[2]
+    assert third.source == notebook_cells.pretrained_source() and "hide-cell" in third.metadata.get("tags", []), \
+        "cell 3 is not the current pretrained-pack cell"
     assert any("assert " in c.source for c in code), "a chapter asserts what it claims"
     assert f"notebooks/{path.stem}" in _toc_files(), "chapter missing from _toc.yml"
+
+
+def test_stamping_adds_the_pretrained_parameter_and_cell(tmp_path):
+    nb = nbformat.v4.new_notebook()
+    params = nbformat.v4.new_code_cell('SCALE = "toy"\nSEED = 0\nDEVICE = "auto"\nN = 3', metadata={"tags": ["parameters"]})
+    nb.cells = [params, nbformat.v4.new_code_cell("assert N == 3")]
+    path = tmp_path / "chapter.ipynb"
+    nbformat.write(nb, path)
+    assert notebook_cells.stamp(path, check=True)
+    assert notebook_cells.stamp(path)
+    cells = nbformat.read(path, as_version=4).cells
+    assert [c.source.splitlines()[0] for c in cells[1:3]] == ['SCALE = "toy"', cells[2].source.splitlines()[0]]
+    assert cells[1].source == 'SCALE = "toy"\nSEED = 0\nDEVICE = "auto"\n' + notebook_cells.PRETRAINED_LINE + "N = 3"
+    assert cells[2].source == notebook_cells.pretrained_source() and cells[3].source == "assert N == 3"
+    assert not notebook_cells.stamp(path)  # stamped once: nothing left to change
+    namespace = {"SCALE": "toy", "SEED": 0}
+    exec(notebook_cells.PRETRAINED_LINE, namespace)
+    exec(notebook_cells.pretrained_source(), namespace)  # off by default: unpacks nothing
+    assert namespace["PRETRAINED"] is False and namespace["_pack"] is None

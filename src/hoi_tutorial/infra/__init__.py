@@ -12,6 +12,7 @@ from .cache import (
     state_dict_to_cpu,
 )
 from .device import choose_device, one_thread, single_threaded, threads_allowed
+from .pack import PackMismatchError, make_pack, read_manifest, release_pack_url, unpack, use_pretrained
 from .parallel import available_cores, warm_cache
 from .presets import SCALES, by_scale, check_scale, scaled_config
 from .seeding import check_seed, rng, seed_everything
@@ -27,4 +28,5 @@ __all__ = [
     "load_or_build", "state_dict_to_cpu",
     "TrainerConfig", "TrainResult", "TrainedModel", "trainer_config", "learning_rate_factor", "move_to_device", "train",
     "format_seconds", "side_by_side",
+    "PackMismatchError", "make_pack", "read_manifest", "release_pack_url", "unpack", "use_pretrained",
 ]

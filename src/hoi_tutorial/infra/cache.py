@@ -62,6 +62,7 @@ __all__ = [
     "cache_only",
     "cache_dir",
     "artifact_key",
+    "module_digests",
     "derived_code",
     "DERIVED_PACKAGES",
     "artifact_path",
@@ -248,6 +249,14 @@ def derived_code(code: Iterable) -> list[str]:
     return sorted(modules)
 
 
+def module_digests(modules: Iterable[str]) -> dict:
+    """``{module: sha256 hex}`` of the installed source of each library module (its name and file text): what
+    :func:`artifact_key` hashes for the modules an artifact runs, and what a pretrained pack records for each
+    artifact so that it can tell whether the installed code is the code that built it."""
+    return {module: hashlib.sha256(module.encode() + b"\0" + module_file(module).read_bytes()).hexdigest()
+            for module in sorted(modules)}
+
+
 def artifact_key(name: str, config, code: Iterable = ()) -> str:
     """The sha256 hex key of an artifact: its name, configuration and producing source code.
 
@@ -263,9 +272,7 @@ def artifact_key(name: str, config, code: Iterable = ()) -> str:
     _check_name(name)
     code = tuple(code)
     digests = {hashlib.sha256(_source_text(item)).hexdigest() for item in code}
-    for module in derived_code(code):
-        path = module_file(module)
-        digests.add(hashlib.sha256(module.encode() + b"\0" + path.read_bytes()).hexdigest())
+    digests.update(module_digests(derived_code(code)).values())
     digests = sorted(digests)
     document = {"format": FORMAT, "name": name, "config": _canonical(config, "config"),
                 "code": digests}
@@ -433,7 +440,8 @@ def load_or_build(name: str, config, build: Callable[[], Any], code: Iterable = 
         the artifact, tensors on the CPU and detached, numpy dtypes and shapes preserved.
     """
     _check_name(name)
-    key = artifact_key(name, config, (*tuple(code), build))
+    code = (*tuple(code), build)
+    key = artifact_key(name, config, code)
     path = artifact_path(name, key)
     if path.exists():
         artifact, reason = _load_verified(path, key)
@@ -449,7 +457,9 @@ def load_or_build(name: str, config, build: Callable[[], Any], code: Iterable = 
         print(f"[cache] building {name} ...")
     start = time.perf_counter()
     payload = _encode(build(), "artifact")
-    blob = {"format": FORMAT, "key": key, "payload": payload, "checksum": _checksum(payload)}
+    # "modules": the library code it ran, for a pretrained pack (infra.pack) to check against the installed code
+    blob = {"format": FORMAT, "key": key, "payload": payload, "checksum": _checksum(payload),
+            "modules": module_digests(derived_code(code))}
     try:
         _save_atomic(blob, path)
     except OSError as exc:

@@ -1,0 +1,73 @@
+"""Build a pretrained pack: run every chapter into one artifact cache, then pack that cache with its manifest.
+
+    python scripts/make_pack.py                         # every chapter, toy scale, seed 0 (`make artifacts`)
+    python scripts/make_pack.py --seed 1 --notebooks 01_toy_world 02_diffusion_and_guidance
+    python scripts/make_pack.py --no-run --cache DIR    # pack a cache a book run already filled
+
+The pack is ``<out>/hoi_tutorial-<version>-<scale>-seed<seed>.zip`` (``hoi_tutorial.infra.make_pack``), with its
+manifest beside it as ``.json`` and its SHA-256 printed: publish both with the release whose code built it. A chapter
+unpacks it with ``PRETRAINED = "<path or URL>"`` (or ``True`` for the release's own), and only where the installed
+code is the code that built each artifact.
+"""
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO_ROOT / "scripts"))
+sys.path.insert(0, str(REPO_ROOT / "src"))
+
+import bench  # noqa: E402  (scripts/bench.py: the chapters, run with papermill)
+
+from hoi_tutorial.infra import make_pack  # noqa: E402
+from hoi_tutorial.infra.pack import _sha256_file, pack_name  # noqa: E402
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--notebooks", nargs="+", help="stems, file names or paths (default: every chapter)")
+    parser.add_argument("--scale", default="toy")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--cache", type=Path, default=REPO_ROOT / "build" / "artifacts" / "cache",
+                        help="the artifact cache the chapters fill (kept: a second run resumes)")
+    parser.add_argument("--out", type=Path, default=REPO_ROOT / "build" / "artifacts", help="where the pack goes")
+    parser.add_argument("--no-run", action="store_true", help="pack --cache as it is, without running chapters")
+    parser.add_argument("--timeout", type=int, default=1800, help="seconds a cell may run (as `make book`)")
+    args = parser.parse_args(argv)
+
+    args.cache.mkdir(parents=True, exist_ok=True)
+    if not args.no_run:
+        os.environ["PYTHONPATH"] = os.pathsep.join(
+            p for p in (str(REPO_ROOT / "src"), os.environ.get("PYTHONPATH")) if p)
+        os.environ.setdefault("MPLBACKEND", "Agg")
+        os.environ["PYVISTA_OFF_SCREEN"] = "true"
+        out_dir = args.out / "executed"
+        out_dir.mkdir(parents=True, exist_ok=True)
+        parameters = {"SCALE": args.scale, "SEED": args.seed}
+        failed = []
+        for path in bench.find_notebooks(args.notebooks):
+            print(f"[artifacts] {path.name} ...", flush=True)
+            seconds, error = bench.run_notebook(path, args.cache, out_dir, parameters, timeout=args.timeout)
+            print(f"[artifacts] {path.name}: {seconds:.0f} s" + (f", FAILED ({error})" if error else ""), flush=True)
+            if error:
+                failed.append(path.stem)
+        if failed:
+            print(f"not packed: {len(failed)} chapter(s) failed ({', '.join(failed)}); their executed notebooks "
+                  f"are in {out_dir}")
+            return 1
+    start = time.perf_counter()
+    target = args.out / pack_name(args.scale, args.seed)
+    manifest = make_pack(target, args.cache, scale=args.scale, seed=args.seed)
+    (target.with_suffix(".json")).write_text(json.dumps(manifest, indent=1) + "\n")
+    size = target.stat().st_size
+    print(f"packed {len(manifest['files'])} artifacts ({sum(f['bytes'] for f in manifest['files']) / 1e6:.0f} MB "
+          f"in the cache, {size / 1e6:.0f} MB packed) in {time.perf_counter() - start:.0f} s: {target}")
+    print(f"sha256 {_sha256_file(target)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,151 @@
+"""Pretrained packs: what a book run built, packed with a manifest, unpacked only where the installed code built it."""
+from __future__ import annotations
+
+import hashlib
+import importlib
+import json
+import sys
+import zipfile
+
+import numpy as np
+import pytest
+
+from hoi_tutorial.infra import cache, load_or_build, pack
+
+
+def _write_package(root, files: dict) -> None:
+    for name, text in files.items():
+        path = root / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+
+
+@pytest.fixture
+def toy_library(tmp_path, monkeypatch):
+    """A two-module library whose artifacts the cache derives from its imports, as it does for hoi_tutorial's."""
+    root = tmp_path / "lib"
+    _write_package(root, {
+        "packpkg/__init__.py": "",
+        "packpkg/maths.py": "def scale(x):\n    return 2 * x\n",
+        "packpkg/data.py": "import numpy as np\n\nfrom . import maths\n\n\n"
+                           "def build():\n    return {'v': np.arange(4.0) * maths.scale(1)}\n",
+        "packpkg/other.py": "def build():\n    return {'w': [1, 2, 3]}\n",
+    })
+    monkeypatch.syspath_prepend(str(root))
+    monkeypatch.setattr(cache, "DERIVED_PACKAGES", cache.DERIVED_PACKAGES | {"packpkg"})
+    for name in [m for m in sys.modules if m.startswith("packpkg")]:
+        monkeypatch.delitem(sys.modules, name)
+    data = importlib.import_module("packpkg.data")
+    other = importlib.import_module("packpkg.other")
+    return root, data, other
+
+
+def _book_run(folder, monkeypatch, data, other):
+    """Two artifacts built into ``folder`` the way a chapter builds them."""
+    monkeypatch.setenv("HOI_CACHE", str(folder))
+    first = load_or_build("toy_data", {"n": 4}, data.build, verbose=False)
+    second = load_or_build("toy_other", {"n": 3}, other.build, verbose=False)
+    return first, second
+
+
+def test_a_pack_unpacked_into_an_empty_cache_is_loaded_without_building(tmp_path, monkeypatch, toy_library):
+    _, data, other = toy_library
+    built = _book_run(tmp_path / "run", monkeypatch, data, other)
+    manifest = pack.make_pack(tmp_path / "p.zip", tmp_path / "run", scale="toy", seed=0)
+    assert [f["name"].split("-")[0] for f in manifest["files"]] == ["toy_data", "toy_other"]
+    # each artifact records the library modules it ran: the builder's and what it imports, nothing unrelated
+    assert set(manifest["files"][0]["modules"]) == {"packpkg.data", "packpkg.maths"}
+    assert set(manifest["files"][1]["modules"]) == {"packpkg.other"}
+    with zipfile.ZipFile(tmp_path / "p.zip") as archive:
+        assert json.loads(archive.read("manifest.json")) == manifest
+        for record in manifest["files"]:
+            assert hashlib.sha256(archive.read(record["name"])).hexdigest() == record["sha256"]
+
+    empty = tmp_path / "reader"
+    report = pack.unpack(tmp_path / "p.zip", empty, scale="toy", seed=0, verbose=False)
+    assert len(report.unpacked) == 2 and not report.stale and not report.present
+    monkeypatch.setenv("HOI_CACHE", str(empty))
+    with cache.cache_only():  # NotCachedError instead of a build
+        loaded = (load_or_build("toy_data", {"n": 4}, data.build, verbose=False),
+                  load_or_build("toy_other", {"n": 3}, other.build, verbose=False))
+    np.testing.assert_array_equal(loaded[0]["v"], built[0]["v"])
+    assert loaded[1] == built[1]
+    # unpacking again leaves the identical files alone
+    again = pack.unpack(tmp_path / "p.zip", empty, verbose=False)
+    assert len(again.present) == 2 and not again.unpacked
+
+
+def test_a_pack_built_before_a_library_edit_is_refused_for_what_the_edit_touches(tmp_path, monkeypatch, toy_library):
+    root, data, other = toy_library
+    _book_run(tmp_path / "run", monkeypatch, data, other)
+    pack.make_pack(tmp_path / "p.zip", tmp_path / "run", scale="toy", seed=0)
+    (root / "packpkg/maths.py").write_text("def scale(x):\n    return 3 * x\n")  # reached by toy_data only
+    report = pack.unpack(tmp_path / "p.zip", tmp_path / "reader", verbose=False)
+    assert [n.split("-")[0] for n in report.unpacked] == ["toy_other"]
+    assert list(report.stale.values()) == [["packpkg.maths"]]
+    assert "1 refused, built from other code (packpkg.maths)" in report.summary()
+    # and refused as a whole, with a message that says so, once the edit touches every artifact
+    (root / "packpkg/other.py").write_text("def build():\n    return {'w': [1, 2, 3, 4]}\n")
+    with pytest.raises(pack.PackMismatchError, match="built from other code.*packpkg.maths, packpkg.other"):
+        pack.unpack(tmp_path / "p.zip", tmp_path / "reader2", verbose=False)
+    assert not list((tmp_path / "reader2").glob("*.pt"))
+
+
+def test_a_pack_for_another_scale_or_seed_or_damaged_is_refused(tmp_path, monkeypatch, toy_library):
+    _, data, other = toy_library
+    _book_run(tmp_path / "run", monkeypatch, data, other)
+    manifest = pack.make_pack(tmp_path / "p.zip", tmp_path / "run", scale="toy", seed=0)
+    with pytest.raises(pack.PackMismatchError, match="holds seed 0 artifacts; this chapter runs seed 1"):
+        pack.unpack(tmp_path / "p.zip", tmp_path / "r", scale="toy", seed=1)
+    with pytest.raises(pack.PackMismatchError, match="holds scale 'toy'"):
+        pack.unpack(tmp_path / "p.zip", tmp_path / "r", scale="small", seed=0)
+    with pytest.raises(pack.PackMismatchError, match="SHA-256 is not the expected"):
+        pack.unpack(tmp_path / "p.zip", tmp_path / "r", sha256="0" * 64)
+    # a file whose bytes are not the manifest's: the damaged file never reaches the cache
+    damaged = tmp_path / "damaged.zip"
+    with zipfile.ZipFile(tmp_path / "p.zip") as source, zipfile.ZipFile(damaged, "w") as target:
+        for item in source.infolist():
+            payload = source.read(item)
+            if item.filename == manifest["files"][1]["name"]:
+                payload = payload[:-1] + bytes([payload[-1] ^ 1])
+            target.writestr(item, payload)
+    with pytest.raises(pack.PackMismatchError, match="does not match its SHA-256"):
+        pack.unpack(damaged, tmp_path / "r2", verbose=False)
+    assert [p.name for p in (tmp_path / "r2").iterdir()] == [manifest["files"][0]["name"]]
+    # a name that is not an artifact file (a path out of the cache) is refused before anything is written
+    evil = tmp_path / "evil.zip"
+    bad = dict(manifest, files=[dict(manifest["files"][0], name="../outside.pt")])
+    with zipfile.ZipFile(evil, "w") as target:
+        target.writestr("manifest.json", json.dumps(bad))
+    with pytest.raises(pack.PackMismatchError, match="not an artifact file name"):
+        pack.unpack(evil, tmp_path / "r3")
+    with pytest.raises(pack.PackMismatchError, match="expected a pretrained pack"):
+        (tmp_path / "not.zip").write_text("hello")
+        pack.unpack(tmp_path / "not.zip", tmp_path / "r4")
+    with pytest.raises(FileNotFoundError, match="neither"):
+        pack.unpack(tmp_path / "missing.zip")
+
+
+def test_make_pack_needs_artifacts_that_record_their_modules(tmp_path):
+    with pytest.raises(FileNotFoundError, match="no artifact files"):
+        pack.make_pack(tmp_path / "p.zip", tmp_path, scale="toy", seed=0)
+    import torch
+
+    torch.save({"format": cache.FORMAT, "key": "0" * 64, "payload": {}, "checksum": ""},
+               tmp_path / "old-0123456789abcdef.pt")
+    with pytest.raises(ValueError, match="records the library modules it ran"):
+        pack.make_pack(tmp_path / "p.zip", tmp_path, scale="toy", seed=0)
+
+
+def test_use_pretrained_reads_the_chapter_parameter(tmp_path, monkeypatch):
+    assert pack.use_pretrained(False, "toy", 0) is None
+    assert pack.use_pretrained("", "toy", 0) is None
+    with pytest.raises(TypeError, match="PRETRAINED: expected False, True, or a pack's path or URL"):
+        pack.use_pretrained(3, "toy", 0)
+    seen = {}
+    monkeypatch.setattr(pack, "unpack", lambda source, **kw: seen.setdefault("source", source))
+    pack.use_pretrained(True, "toy", 2)
+    from hoi_tutorial import __version__
+
+    assert seen["source"].endswith(f"/v{__version__}/hoi_tutorial-{__version__}-toy-seed2.zip")
+    assert pack.pack_name("small", 1, "9.9") == "hoi_tutorial-9.9-small-seed1.zip"
