@@ -16,7 +16,7 @@ BENCH_ARGS ?=
 LOCK ?= requirements.lock
 # Extra flags for scripts/make_pack.py (`make artifacts`), e.g. ARTIFACTS_ARGS="--seed 1".
 ARTIFACTS_ARGS ?=
-# Chapters scripts/colab_check.py executes in a bare runtime (empty: its default, chapters 01 and 02).
+# Chapters scripts/colab_check.py executes in a Colab-like runtime (empty: its default, chapters 03, 11 and 15).
 COLAB_CHAPTERS ?=
 # Seconds one cell of a chapter may run in `make book` and `make test`. A chapter's first code cell builds what
 # the chapter needs, and on a machine half as fast as CI's the longest take over 10 min: readers get 30 min.

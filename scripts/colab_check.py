@@ -3,17 +3,22 @@
 Every chapter's first cell installs the library only where ``import hoi_tutorial`` fails. CI and
 local builds always have the library, so that branch never runs there. This check makes it run:
 
-1. it creates a fresh virtual environment in a temporary folder holding only what a Colab
-   runtime already has (torch, numpy, scipy, matplotlib, pandas, ipykernel) plus papermill, the
-   runner; not the library nor its other dependencies (pyvista, trimesh, scikit-fmm, ...);
+1. it creates a fresh virtual environment in a temporary folder holding what a Colab runtime already
+   has, at Colab's versions (``COLAB_PACKAGES``: numpy, scipy, pandas, matplotlib, the Jupyter kernel
+   with IPython 7 and ipywidgets 7, tqdm, networkx, scikit-learn, pooch, ...) plus papermill, the
+   runner; not the library nor the dependencies Colab lacks (pyvista, trimesh, scikit-fmm, ...);
 2. it registers a Jupyter kernel for that environment and checks, with a probe notebook, that the
    kernel runs the environment's interpreter and cannot import ``hoi_tutorial``;
 3. it executes each chapter with papermill on that kernel, with ``HOI_TUTORIAL_SOURCE`` pointing at
    a copy of this checkout (so the set-up cell installs the working tree, not the repository),
    an empty artifact cache (``HOI_CACHE``), ``MPLBACKEND=Agg`` and ``SCALE=toy``. Between chapters
    the environment is put back to its bare state, so each chapter installs the library itself.
+4. after each chapter it compares the environment with the bare runtime: the set-up cell must leave
+   every one of Colab's packages at Colab's version (a replaced ipywidgets or IPython makes Colab ask
+   for a restart), and install no test package, and the render extra (pyvista, VTK) only for a
+   chapter that renders.
 
-A chapter passes when it runs from its set-up cell alone. When a chapter imports a module that the
+A chapter passes when it runs from its set-up cell alone and changes none of Colab's packages. When a chapter imports a module that the
 set-up cell's install does not bring (its distribution is missing from ``[project]
 dependencies`` in ``pyproject.toml``), the check fails with a message naming the module.
 The time of every step is printed; the temporary folders are removed at the end (``--keep``
@@ -21,7 +26,7 @@ keeps them for inspection).
 
 Usage::
 
-    python scripts/colab_check.py                       # chapters 01 and 02
+    python scripts/colab_check.py                       # chapters 03, 11 and 15: one of each paper
     python scripts/colab_check.py notebooks/05_object_interaction_fields.ipynb
     make colab-check COLAB_CHAPTERS="notebooks/01_toy_world.ipynb"
 """
@@ -41,11 +46,28 @@ from pathlib import Path
 from typing import Iterator, Optional, Sequence
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_CHAPTERS = ("notebooks/01_toy_world.ipynb", "notebooks/02_diffusion_and_guidance.ipynb")
-# What a Colab runtime already has. torch comes first and pinned: the pin selects the CPU build,
-# an unpinned torch would pull the CUDA build (gigabytes).
+# One chapter of each paper: NIFTY (renders in 3D), SAMP (does not), CHOICE (renders).
+DEFAULT_CHAPTERS = ("notebooks/03_synthetic_interaction_data.ipynb", "notebooks/11_samp_goals_and_paths.ipynb",
+                    "notebooks/15_choice_fields.ipynb")
+# torch comes first and pinned: the pin selects the CPU build, an unpinned torch would pull the CUDA build
+# (gigabytes). Colab's CPU runtime has torch 2.11.0+cpu on Python 3.13; the check runs this machine's Python and
+# its CPU torch.
 TORCH_SPEC = os.environ.get("TORCH_SPEC", "torch==2.13.0")
-RUNTIME_PACKAGES = ("numpy", "scipy", "matplotlib", "pandas", "ipykernel", "papermill")
+# What a Colab runtime already has, at its versions: the packages of Colab's published `pip freeze`
+# (github.com/googlecolab/backend-info, pip-freeze.txt of 2026-08-19) that the library, its chapters or the
+# Jupyter kernel use. The set-up cell must leave each as it is.
+COLAB_PACKAGES = (
+    "numpy==2.1.3", "scipy==1.16.3", "pandas==2.2.3", "matplotlib==3.10.0", "pillow==11.3.0",
+    "networkx==3.6.1", "scikit-learn==1.6.1", "tqdm==4.67.3", "pooch==1.9.0", "rtree==1.4.1", "PyYAML==6.0.3",
+    "ipykernel==6.17.1", "ipython==7.34.0", "ipywidgets==7.7.1", "jupyter_client==7.4.9", "traitlets==5.7.1",
+    "nbformat==5.11.1",
+)
+# The runner, which Colab does not need.
+RUNNER_PACKAGES = ("papermill",)
+# Installed by the test or render extras only: a chapter's set-up cell brings none of these (render: only a chapter
+# that renders).
+TEST_ONLY = ("pytest", "hypothesis", "nbval", "diffusers")
+RENDER_ONLY = ("pyvista", "vtk")
 KERNEL_NAME = "hoi-colab-check"
 SOURCE_VARIABLE = "HOI_TUTORIAL_SOURCE"
 # Files the library's install needs: what a ``pip install git+...`` of the repository builds from.
@@ -149,6 +171,18 @@ def run(command: Sequence, env: Optional[dict] = None, cwd: Optional[Path] = Non
     return result.stdout
 
 
+def _renders(chapter: Path) -> bool:
+    """Whether a chapter renders in 3D (its set-up cell installs the render extra; scripts/notebook_cells.py)."""
+    import importlib.util
+
+    import nbformat
+
+    spec = importlib.util.spec_from_file_location("notebook_cells", REPO_ROOT / "scripts" / "notebook_cells.py")
+    cells = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(cells)
+    return cells.uses_render(nbformat.read(chapter, as_version=4))
+
+
 def bare_environment(venv: Path) -> dict:
     """The environment the kernel sees: the caller's, less anything pointing at another Python."""
     env = {k: v for k, v in os.environ.items() if k not in DROPPED_VARIABLES}
@@ -211,6 +245,27 @@ def freeze(python: Path) -> dict:
     return found
 
 
+def _name(requirement: str) -> str:
+    return re.split(r"[=<>@ \[]", requirement.strip(), maxsplit=1)[0].lower().replace("_", "-")
+
+
+def changed_by_setup(chapter: str, bare: dict, now: dict, renders: bool) -> list:
+    """What a chapter's set-up cell did that a Colab runtime would not want: Colab's packages at other versions,
+    a test package, or the render extra in a chapter that does not render (``bare`` and ``now``: :func:`freeze`)."""
+    problems = []
+    for requirement in COLAB_PACKAGES:
+        name = _name(requirement)
+        if bare.get(name) != now.get(name):
+            problems.append(f"{chapter}: the set-up cell changed Colab's {bare.get(name, name)} to "
+                            f"{now.get(name, 'nothing')} (Colab would ask for a restart); loosen the requirement "
+                            "in pyproject.toml")
+    for name in TEST_ONLY + (() if renders else RENDER_ONLY):
+        if name in now and name not in bare:
+            problems.append(f"{chapter}: the set-up cell installed {now[name]}, which "
+                            f"{'only the tests need' if name in TEST_ONLY else 'only chapters that render need'}")
+    return problems
+
+
 def restore(python: Path, bare: dict) -> None:
     """Put an environment back to the packages in ``bare`` (a :func:`freeze`): remove what a chapter
     installed, reinstall what it upgraded."""
@@ -258,8 +313,15 @@ def check(chapters: Sequence[Path], keep: bool = False, timeout: int = 1800) -> 
         env = bare_environment(venv)
         with step(f"install {TORCH_SPEC} (first, so the CPU build is kept)", times):
             run([python, "-m", "pip", "install", "--quiet", TORCH_SPEC], env=env)
-        with step(f"install the rest of the runtime: {' '.join(RUNTIME_PACKAGES)}", times):
-            run([python, "-m", "pip", "install", "--quiet", *RUNTIME_PACKAGES], env=env)
+        with step(f"install Colab's packages at Colab's versions, and the runner: "
+                  f"{' '.join(COLAB_PACKAGES + RUNNER_PACKAGES)}", times):
+            run([python, "-m", "pip", "install", "--quiet", *COLAB_PACKAGES, *RUNNER_PACKAGES], env=env)
+            pinned = freeze(python)
+            off = [r for r in COLAB_PACKAGES if pinned.get(_name(r), "").lower().replace("_", "-")
+                   != r.lower().replace("_", "-")]
+            if off:
+                raise CheckFailed("the runner moved Colab's packages off their versions: "
+                                  + ", ".join(f"{r} (now {pinned.get(_name(r))})" for r in off))
         with step(f"register the kernel {KERNEL_NAME!r} for the environment", times):
             run([python, "-m", "ipykernel", "install", "--prefix", venv, "--name", KERNEL_NAME,
                  "--display-name", "Python 3 (colab-check)"], env=env)
@@ -297,8 +359,14 @@ def check(chapters: Sequence[Path], keep: bool = False, timeout: int = 1800) -> 
                     if setup is not None and "setup" in setup.metadata.get("tags", []):
                         seconds = setup.metadata.get("papermill", {}).get("duration") or 0.0
                         print(f"    set-up cell (the library's install): {seconds:.1f} s")
-                    if "hoi-tutorial" not in freeze(python):
+                    now = freeze(python)
+                    if "hoi-tutorial" not in now:
                         raise CheckFailed(f"{name}: ran, but the set-up cell did not install hoi_tutorial")
+                    problems = changed_by_setup(name, bare, now, renders=_renders(chapter))
+                    if problems:
+                        raise CheckFailed("\n".join(problems))
+                    print(f"    Colab's {len(COLAB_PACKAGES)} packages unchanged; no test package"
+                          f"{'' if _renders(chapter) else ', no render package'}")
             except CheckFailed as exc:
                 failures.append(str(exc))
                 print(f"    {exc}", flush=True)
@@ -327,7 +395,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("chapters", nargs="*", type=Path,
                         default=[REPO_ROOT / c for c in DEFAULT_CHAPTERS],
-                        help="notebooks to execute (default: chapters 01 and 02)")
+                        help="notebooks to execute (default: chapters 03, 11 and 15, one of each paper)")
     parser.add_argument("--keep", action="store_true", help="keep the temporary folders for inspection")
     parser.add_argument("--timeout", type=int, default=1800, help="seconds allowed per cell (default 1800)")
     args = parser.parse_args(argv)

@@ -168,6 +168,25 @@ def test_other_errors_are_reported_as_they_are():
     assert colab_check.diagnose("02.ipynb", nb) == "02.ipynb (cell 7): AssertionError: guided walks too slow"
 
 
+def test_a_set_up_cell_that_changes_colabs_packages_or_brings_test_or_render_packages_is_told():
+    bare = {colab_check._name(r): r for r in colab_check.COLAB_PACKAGES}
+    assert bare["ipywidgets"] == "ipywidgets==7.7.1" and bare["jupyter-client"] == "jupyter_client==7.4.9"
+    now = dict(bare, **{"hoi-tutorial": "hoi-tutorial==0.1.0", "trimesh": "trimesh==4.5.0"})
+    assert colab_check.changed_by_setup("11.ipynb", bare, now, renders=False) == []
+    now_widgets = dict(now, ipywidgets="ipywidgets==8.1.9")
+    [message] = colab_check.changed_by_setup("11.ipynb", bare, now_widgets, renders=False)
+    assert "changed Colab's ipywidgets==7.7.1 to ipywidgets==8.1.9" in message and "restart" in message
+    with_render = dict(now, pyvista="pyvista==0.44.0", vtk="vtk==9.3.1", pytest="pytest==8.0.0")
+    problems = colab_check.changed_by_setup("11.ipynb", bare, with_render, renders=False)
+    assert len(problems) == 3 and "only the tests need" in problems[0]
+    assert "only chapters that render need" in problems[1]
+    assert colab_check.changed_by_setup("11.ipynb", bare, with_render, renders=True) == [problems[0]]
+    # the default chapters: one of each paper, renders and not
+    papers = [Path(c).name.split("_")[1] for c in colab_check.DEFAULT_CHAPTERS]
+    assert sorted(papers[1:]) == ["choice", "samp"] and papers[0] == "synthetic"  # 03: NIFTY's data
+    assert [colab_check._renders(REPO_ROOT / c) for c in colab_check.DEFAULT_CHAPTERS] == [True, False, True]
+
+
 def test_a_failure_without_a_notebook_falls_back_to_the_log():
     log = "Traceback ...\nModuleNotFoundError: No module named 'filterpy'\n"
     assert "'filterpy'" in colab_check.diagnose("18.ipynb", None, log)

@@ -149,3 +149,28 @@ def test_use_pretrained_reads_the_chapter_parameter(tmp_path, monkeypatch):
 
     assert seen["source"].endswith(f"/v{__version__}/hoi_tutorial-{__version__}-toy-seed2.zip")
     assert pack.pack_name("small", 1, "9.9") == "hoi_tutorial-9.9-small-seed1.zip"
+
+
+def test_a_url_is_fetched_with_pooch_and_a_failed_download_says_what_to_do(tmp_path, monkeypatch, toy_library):
+    import pooch
+
+    _, data, other = toy_library
+    _book_run(tmp_path / "run", monkeypatch, data, other)
+    pack.make_pack(tmp_path / "p.zip", tmp_path / "run", scale="toy", seed=0)
+    asked = {}
+
+    def retrieve(url, known_hash, path, progressbar):
+        asked.update(url=url, known_hash=known_hash)
+        return str(tmp_path / "p.zip")
+
+    monkeypatch.setattr(pooch, "retrieve", retrieve)
+    report = pack.unpack("https://example.org/p.zip", tmp_path / "reader", sha256="ab" * 32, verbose=False)
+    assert asked == {"url": "https://example.org/p.zip", "known_hash": "sha256:" + "ab" * 32}
+    assert len(report.unpacked) == 2
+
+    def offline(*args, **kwargs):
+        raise ConnectionError("no network")
+
+    monkeypatch.setattr(pooch, "retrieve", offline)
+    with pytest.raises(FileNotFoundError, match="could not download .*ConnectionError.*PRETRAINED"):
+        pack.unpack("https://example.org/p.zip", tmp_path / "reader2")

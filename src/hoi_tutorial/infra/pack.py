@@ -189,7 +189,15 @@ def _fetch(source: str, sha256: Optional[str]) -> pathlib.Path:
         import pooch  # only for a download
 
         known = f"sha256:{sha256}" if sha256 else None
-        return pathlib.Path(pooch.retrieve(source, known_hash=known, path=cache_dir() / "packs", progressbar=True))
+        try:
+            return pathlib.Path(pooch.retrieve(source, known_hash=known, path=cache_dir() / "packs",
+                                               progressbar=True))
+        except ValueError:  # pooch's hash mismatch
+            raise
+        except Exception as exc:  # no network, no such release asset (HTTP 404), ...
+            raise FileNotFoundError(f"pack: could not download {source} ({type(exc).__name__}: {exc}); set "
+                                    "PRETRAINED to a pack's path or another URL, or to False to build everything"
+                                    ) from exc
     path = pathlib.Path(source).expanduser()
     if not path.is_file():
         raise FileNotFoundError(f"pack: expected a pack file or an http(s) URL, {source!r} is neither")

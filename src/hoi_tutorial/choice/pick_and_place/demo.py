@@ -23,7 +23,9 @@ The algorithm box, as this module runs it (:func:`pick_and_place`):
    feet come within ``body_radius`` of the scene is passed over (ours: the matching checks the root on its grid); a walk that
    ends farther than ``goal_tolerance`` is a miss and the next start is tried (every try is recorded in
    ``walks``); the pose then settles onto A.
-5. **At the cabinet** (Fig. 6's states as wrist paths; steps 4–7 are in ``motion_pieces``): the door hand reaches the handle and pulls it on
+5. **At the cabinet** (Fig. 6's states as wrist paths; steps 4–7 are in ``motion_pieces``): the door hand reaches
+   the handle along the path §4's planner plans among the kitchen's things with the door closed (the handle a ball
+   around its grasp point, ``hand_paths.grip_target``) and pulls it on
    its circle about the hinge to ``task.opening`` (minimum-jerk in time); the body turns to face the handle
    while the door's edge passes, then steps (``world.mocap.standing.step_feet``) behind the door to B; the
    other hand, waiting in front of the belly, reaches the bottle's grasp point along the path §4's planner
@@ -45,7 +47,8 @@ Choices that are ours (the paper does not state them, or we simplify):
 
 - **The body is not driven by the §5.1 controller.** The arms are posed by two-bone IK
   (``world.kinematics.solve_limb_ik``, through ``world.mocap.body_plan.plan_to_motion``) on the scheduled
-  keyframes and the wrist paths (the planner's two approaches; ours for the handle, the way out and the hold);
+  keyframes and the wrist paths (the planner's three approaches; ours for the way out, the hold and the door's
+  swing, which the handle's circle fixes);
   the trunk bends (``world.mocap.standing.choose_bend``) so that the shoulders reach; the feet are planted
   except for the steps at the cabinet (A → B, B → the walk's start) and the walks. The mixture-of-experts controller of §5.1 (``choice.controller``) is evaluated
   separately (Table 4) and plays no part here; nor does §6.2's phase-driven interaction motion.
@@ -346,7 +349,8 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
             best = (rank, xy_b, psi_b, exit_b, built, motion_b)
         if score >= 0.0 and error <= _HOLD_TOLERANCE:
             break
-    _, take_xy, take_heading, exit_xy, (cab_plan, cab_phases, cab_door, grasp_frame, bottle_path), cab_motion = best
+    _, take_xy, take_heading, exit_xy, (cab_plan, cab_phases, cab_door, grasp_frame, bottle_path, handle_path), \
+        cab_motion = best
 
     # the table: its stance and the spot, then Fig. 6's keyframes with the place
     contact_offset = task.target.contact - bottle.translation
@@ -410,7 +414,8 @@ def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig())
               "goal_error": float(nav2.goal_error), "stopped": nav2.stopped,
               "frames": len(carried[0]) if carried else 0}]
     result = PickAndPlace(seed, kitchen, plan, first.chosen, motion, door, bottle_pose, phases, hands, np.asarray(place_at),
-                          walks, config=config, hand_paths={"reach bottle": bottle_path.as_record(),
+                          walks, config=config, hand_paths={"reach handle": handle_path.as_record(),
+                                                            "reach bottle": bottle_path.as_record(),
                                                             "place": place_path.as_record()})
     result.checks = evaluate(result)
     result.checks["walks_reached"] = bool(nav1.reached and nav2.reached)

@@ -233,14 +233,15 @@ class TableStance(NamedTuple):
 
 class CabinetPlan(NamedTuple):
     """The plan at the cabinet: the body ``plan``, its ``phases`` ``[(name, frames)]``, the ``door`` angle per
-    frame (T,), ``grasp_frame``, the first frame the bottle is held, and ``bottle_path``, the bottle hand's
-    approach planned by §4's planner (``hand_paths.HandPath``)."""
+    frame (T,), ``grasp_frame``, the first frame the bottle is held, ``bottle_path`` and ``handle_path``, the
+    bottle hand's and the door hand's approaches planned by §4's planner (``hand_paths.HandPath``)."""
 
     plan: object
     phases: list
     door: np.ndarray
     grasp_frame: int
     bottle_path: object
+    handle_path: object
 
 
 class TablePlan(NamedTuple):

@@ -18,7 +18,7 @@ import numpy as np
 import torch
 
 from ...world.kinematics import forward_kinematics, solve_limb_ik
-from ...world.mocap.body_plan import ELBOW_POLE, SIDES, UP, PlanBody, hand_on_point
+from ...world.mocap.body_plan import ELBOW_POLE, SIDES, UP, PlanBody, hand_on_point, upper_local
 from ...world.mocap.handles import handle_circle
 from ...world.mocap.motion_math import (forward_xyz, heading_of, min_jerk, right_xyz, rot_x, rot_z, slerp_rot,
                                        smoothstep)
@@ -30,7 +30,7 @@ from ...world.skeleton import joint_index
 from . import environment as env
 from . import locomotion
 from .checks import handle_at
-from .hand_paths import planned_approach
+from .hand_paths import grip_target, planned_approach
 from .demo_types import CabinetPlan, DemoSetting, PickAndPlaceConfig, Stance, TablePlan
 from .stances import stance_bend, stance_pose
 
@@ -198,11 +198,16 @@ def plan_at_cabinet(setting: DemoSetting, stance_a: Stance, stance_b: Stance, ex
     for (name, n, action), a in zip(names, starts):
         plan.actions[a:a + n] = action_id(action)
     front = cabinet.rotation[:, 1]
-    # the door hand: to the handle (from 10 cm in front, 4 cm above), on it while it swings, then let go
+    # the door hand: from where it hangs to the handle along the approach §4's planner plans among the kitchen's
+    # things (the door closed; the handle a ball the grid can see, hand_paths.grip_target), on the handle while it
+    # swings, then let go
     handle0 = task.auxiliary.contact
-    w = smoothstep(u["reach handle"] / 0.9)
-    hand_on_point(plan, span["reach handle"], d, handle0[None] + (1 - w)[:, None] * (0.10 * front + 0.04 * UP),
-                  w)
+    hanging = body.fk(upper_local(plan, body)[0], plan.root[0])[1][joint_index(f"{SIDES[d]}_wrist")]
+    handle_path = planned_approach(setting.planner, grip_target(handle0), _door_closed_scene(task), hanging, handle0,
+                                   SIDES[d], "grasp", grid_yaw=env.object_yaw(cabinet), grid_centre=handle0,
+                                   seed=setting.seed)
+    hand_on_point(plan, span["reach handle"], d, along_path(handle_path.path, min_jerk(u["reach handle"])),
+                  np.ones(reach))
     frames = slice(span["grasp handle"].start, span["release door"].start)
     hand_on_point(plan, frames, d, handle[frames], np.ones(frames.stop - frames.start))
     # letting go: the hand draws 10 cm off the door on the body's side, then hangs
@@ -244,7 +249,15 @@ def plan_at_cabinet(setting: DemoSetting, stance_a: Stance, stance_b: Stance, ex
         plan.contacts[span[name], 3 + d] = True
     for name in ("grasp bottle", "take out", "release door", "stand up"):
         plan.contacts[span[name], 3 + g] = True
-    return CabinetPlan(plan, [(name, n) for name, n, _ in names], door, int(span["grasp bottle"].start), bottle_path)
+    return CabinetPlan(plan, [(name, n) for name, n, _ in names], door, int(span["grasp bottle"].start), bottle_path,
+                       handle_path)
+
+
+def _door_closed_scene(task) -> list:
+    """Everything in the task's kitchen, the cabinet's door closed: the obstacles the door hand's approach to the
+    handle is planned among."""
+    kitchen = task.kitchen
+    return list(kitchen.furniture) + list(kitchen.obstacles) + list(kitchen.items)
 
 
 def _door_open_scene(task) -> list:
