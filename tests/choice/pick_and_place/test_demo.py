@@ -71,9 +71,11 @@ def test_the_hands_follow_the_paths_the_planner_planned_in_the_demos_scene(run0)
 
     joints = run0.motion.joints.double().numpy()
     contact = run0.plan.task.target.contact
-    # the IK arm reaches every point of the reaches (measured: under 1 µm); lowering the bottle, the trunk's bend
-    # is chosen for the spot alone and the stretched arm falls up to 2.7 cm short mid-way (seeds 0-2)
-    for name, hand, goal, reach in (("reach handle", "door", run0.plan.task.auxiliary.contact, 0.005),
+    # the IK arm reaches every point of the reaches (measured: under 1 µm, with this CPU's kernels and with
+    # numeric_env's others; reaching for the handle the trunk bends ahead of the hand, else the path's swing lies
+    # up to 7 cm beyond the arm mid-way); lowering the bottle, the trunk's bend is chosen for the spot alone and the
+    # stretched arm falls up to 2.7 cm short mid-way (seeds 0-2)
+    for name, hand, goal, reach in (("reach handle", "door", run0.plan.task.auxiliary.contact, 0.01),
                                     ("reach bottle", "bottle", contact, 0.005), ("place", "bottle", run0.place_at, 0.04)):
         wrist = joints[:, joint_index(f"{run0.hands[hand]}_wrist")]
         record = run0.hand_paths[name]

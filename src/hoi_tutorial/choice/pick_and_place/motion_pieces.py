@@ -156,7 +156,9 @@ def plan_at_cabinet(setting: DemoSetting, stance_a: Stance, stance_b: Stance, ex
              ("reach bottle", B2, B2),
              ("grasp bottle", B2, B2), ("take out", B2, B3), ("release door", B3, B3), ("stand up", B3, B0)]
     for name, a, b in curve:
-        w = min_jerk(u[name])
+        # reaching for the handle the trunk bends ahead of the hand (done at 60 % of the reach), so the shoulder
+        # is near enough for the planned path's swing
+        w = min_jerk(np.clip(u[name] / 0.6, 0.0, 1.0) if name == "reach handle" else u[name])
         h[span[name]] = a[0] + w * (b[0] - a[0])
         alpha[span[name]] = a[1] + w * (b[1] - a[1])
     q_full = float(task.opening)
