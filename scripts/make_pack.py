@@ -61,6 +61,7 @@ def main(argv=None) -> int:
     start = time.perf_counter()
     target = args.out / pack_name(args.scale, args.seed)
     manifest = make_pack(target, args.cache, scale=args.scale, seed=args.seed)
+    target.chmod(0o644)  # to publish: readable by all, as a release asset
     (target.with_suffix(".json")).write_text(json.dumps(manifest, indent=1) + "\n")
     size = target.stat().st_size
     print(f"packed {len(manifest['files'])} artifacts ({sum(f['bytes'] for f in manifest['files']) / 1e6:.0f} MB "

@@ -174,3 +174,22 @@ def test_a_url_is_fetched_with_pooch_and_a_failed_download_says_what_to_do(tmp_p
     monkeypatch.setattr(pooch, "retrieve", offline)
     with pytest.raises(FileNotFoundError, match="could not download .*ConnectionError.*PRETRAINED"):
         pack.unpack("https://example.org/p.zip", tmp_path / "reader2")
+
+
+def test_make_pack_script_packs_a_filled_cache_with_its_manifest_beside_it(tmp_path, monkeypatch, toy_library,
+                                                                          capsys):
+    import importlib.util
+    from pathlib import Path
+
+    _, data, other = toy_library
+    _book_run(tmp_path / "run", monkeypatch, data, other)
+    script = Path(__file__).resolve().parents[1] / "scripts" / "make_pack.py"
+    spec = importlib.util.spec_from_file_location("make_pack_script", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert module.main(["--no-run", "--cache", str(tmp_path / "run"), "--out", str(tmp_path / "out"),
+                        "--seed", "3"]) == 0
+    target = tmp_path / "out" / pack.pack_name("toy", 3)
+    assert target.stat().st_mode & 0o777 == 0o644
+    assert json.loads(target.with_suffix(".json").read_text()) == pack.read_manifest(target)
+    assert f"sha256 {pack._sha256_file(target)}" in capsys.readouterr().out
