@@ -43,3 +43,27 @@ def module_cache(tmp_path_factory):
     patch.setenv("HOI_CACHE", str(cache_dir))
     yield cache_dir
     patch.undo()
+
+
+@pytest.fixture
+def derived_package(tmp_path, monkeypatch):
+    """A factory: ``derived_package(name, {relative path: source})`` writes a package of its own under ``tmp_path``,
+    puts it on ``sys.path`` and among the packages whose imports the artifact cache follows
+    (``cache.DERIVED_PACKAGES``), as it does ``hoi_tutorial``'s, and forgets any module of that name imported before.
+    Returns the folder it was written in (edit files there to change the package)."""
+    import sys
+
+    from hoi_tutorial.infra import cache
+
+    def make(name: str, files: dict):
+        for relative, text in files.items():
+            path = tmp_path / relative
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text)
+        monkeypatch.syspath_prepend(str(tmp_path))
+        monkeypatch.setattr(cache, "DERIVED_PACKAGES", cache.DERIVED_PACKAGES | {name})
+        for module in [m for m in sys.modules if m == name or m.startswith(name + ".")]:
+            monkeypatch.delitem(sys.modules, module)
+        return tmp_path
+
+    return make

@@ -717,20 +717,10 @@ def test_threads_allowed_lends_cores_to_one_thread_sections():
 # ----------------------------------------------------------------------------- keys derived from imports
 
 
-def _write_package(root, files: dict) -> None:
-    for name, text in files.items():
-        path = root / name
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
-
-
-def test_an_edit_reached_only_through_imports_changes_the_key_and_nothing_else(tmp_path, monkeypatch):
-    import sys
-
-    from hoi_tutorial.infra import cache
+def test_an_edit_reached_only_through_imports_changes_the_key_and_nothing_else(tmp_path, derived_package):
     from hoi_tutorial.infra.code_closure import code_closure
 
-    _write_package(tmp_path, {
+    derived_package("derivedpkg", {
         "derivedpkg/__init__.py": "",
         "derivedpkg/tools/__init__.py": "from .deep import scale\n",  # a re-export, as infra/__init__ does
         "derivedpkg/tools/deep.py": "def scale(x):\n    return 2 * x\n",
@@ -740,10 +730,6 @@ def test_an_edit_reached_only_through_imports_changes_the_key_and_nothing_else(t
         "derivedpkg/other.py": "def build():\n    return {'v': 0}\n",
         "derivedpkg/unrelated.py": "VALUE = 1\n",
     })
-    monkeypatch.syspath_prepend(str(tmp_path))
-    monkeypatch.setattr(cache, "DERIVED_PACKAGES", cache.DERIVED_PACKAGES | {"derivedpkg"})
-    for name in [m for m in sys.modules if m.startswith("derivedpkg")]:
-        monkeypatch.delitem(sys.modules, name)
     builder = importlib.import_module("derivedpkg.builder")
     other = importlib.import_module("derivedpkg.other")
     # the builder's module, what it imports, and the module that defines the re-exported name; not the rest

@@ -4,7 +4,6 @@ from __future__ import annotations
 import hashlib
 import importlib
 import json
-import sys
 import zipfile
 
 import numpy as np
@@ -13,31 +12,17 @@ import pytest
 from hoi_tutorial.infra import cache, load_or_build, pack
 
 
-def _write_package(root, files: dict) -> None:
-    for name, text in files.items():
-        path = root / name
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
-
-
 @pytest.fixture
-def toy_library(tmp_path, monkeypatch):
+def toy_library(derived_package):
     """A two-module library whose artifacts the cache derives from its imports, as it does for hoi_tutorial's."""
-    root = tmp_path / "lib"
-    _write_package(root, {
+    root = derived_package("packpkg", {
         "packpkg/__init__.py": "",
         "packpkg/maths.py": "def scale(x):\n    return 2 * x\n",
         "packpkg/data.py": "import numpy as np\n\nfrom . import maths\n\n\n"
                            "def build():\n    return {'v': np.arange(4.0) * maths.scale(1)}\n",
         "packpkg/other.py": "def build():\n    return {'w': [1, 2, 3]}\n",
     })
-    monkeypatch.syspath_prepend(str(root))
-    monkeypatch.setattr(cache, "DERIVED_PACKAGES", cache.DERIVED_PACKAGES | {"packpkg"})
-    for name in [m for m in sys.modules if m.startswith("packpkg")]:
-        monkeypatch.delitem(sys.modules, name)
-    data = importlib.import_module("packpkg.data")
-    other = importlib.import_module("packpkg.other")
-    return root, data, other
+    return root, importlib.import_module("packpkg.data"), importlib.import_module("packpkg.other")
 
 
 def _book_run(folder, monkeypatch, data, other):
