@@ -2,6 +2,8 @@
 takes the bottle out and puts it on the table without collision for seeds 0, 1, 2; the schedule is co-temporal;
 the collision measure flags a door kept shut and a bottle moved through the cabinet; the arms' measures tell
 crossed and touching arms; determinism; errors."""
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -211,8 +213,6 @@ def test_the_controller_at_the_cabinet_gets_the_demos_handle_keyframe_and_both_s
     assert abs(standing["distance"] - float(np.linalg.norm(run0.motion.joints[standing["frame"], door_wrist].numpy()
                                                            - handle))) < 1e-5
     # the standing start alone, rolled out with the Kalman goal phase, gives the batch's numbers
-    import dataclasses
-
     side = ("left", "right").index(run0.hands["door"])
     goal = runtime.clip_goal(model, [dataclasses.replace(run0.motion, meta={"anchor_frame": g,
                                                                                 "hand": run0.hands["door"]})])
@@ -228,6 +228,68 @@ def test_the_controller_at_the_cabinet_gets_the_demos_handle_keyframe_and_both_s
         pp.controller_at_cabinet("run", model)
     with pytest.raises(ValueError, match="model: expected a network.ControllerNet"):
         pp.controller_at_cabinet(run0, torch.nn.Linear(2, 2))
+
+
+def test_controller_reaches_start_where_each_approach_starts_and_aim_at_the_demos_contacts(run0):
+    """Each contact's goal is the demo's keyframe there (the working wrist on the handle, the bottle's grasp point,
+    the spot over the table); the rollout starts where the demo's approach starts; the three contacts rolled out in
+    one batch give what one gives alone (untrained weights: the wiring, not the skill)."""
+    import torch
+
+    from hoi_tutorial.choice.controller import network, phase, runtime
+    from hoi_tutorial.choice.pick_and_place import controller_reaches as cr
+    from hoi_tutorial.world.skeleton import joint_index
+
+    config = network.controller_config("toy")
+    torch.manual_seed(0)
+    model = network.build_controller(config, phase.build_phase_autoencoder(phase.phase_config(config.phase_scale)))
+    model.eval()
+    out = cr.controller_reaches(run0, model, wait=0.2)
+    assert list(out) == ["handle", "bottle", "table"]
+    roles = {"handle": "door", "bottle": "bottle", "table": "bottle"}
+    approaches = {"handle": ("reach handle", "grasp handle"), "bottle": ("reach bottle", "grasp bottle"),
+                  "table": ("place", "release bottle")}
+    for name, v in out.items():
+        assert v["hand"] == run0.hands[roles[name]]
+        assert v["start"] == run0.phase(approaches[name][0])[0] and v["due"] == run0.phase(approaches[name][1])[0]
+        wrist = joint_index(f"{v['hand']}_wrist")
+        np.testing.assert_allclose(v["target"], run0.motion.joints[v["due"], wrist].numpy(), atol=1e-5)
+        assert abs(v["from_start"] - float(np.linalg.norm(run0.motion.joints[v["start"], wrist].numpy()
+                                                          - v["target"]))) < 1e-5
+        n = v["due"] - v["start"] + 6  # 0.2 s waited
+        assert v["wrist"].shape == (n, 3) and v["joints"].shape == (n, 22, 3)
+        np.testing.assert_allclose(v["joints"][:, wrist], v["wrist"], atol=1e-6)  # the body's wrist is the one measured
+        distance = np.linalg.norm(v["wrist"] - v["target"], axis=-1)
+        assert v["correction"] == pytest.approx(distance.min()) and v["at_due"] == pytest.approx(distance[n - 7])
+    # the handle keyframe holds the handle, the table's is where the scheduler places the grasp point
+    assert np.linalg.norm(out["handle"]["target"] - run0.plan.task.auxiliary.contact) < 0.02
+    # the bottle's contact rolled out alone gives the batch's wrist
+    v = out["bottle"]
+    goal = runtime.clip_goal(model, [dataclasses.replace(run0.motion, meta={"anchor_frame": v["due"], "hand": v["hand"]})])
+    state = runtime.toward_goal(runtime.initial_state(model, [run0.motion.slice(0, v["start"] + 1)], frame=v["start"]),
+                                goal)
+    alone = runtime.rollout(model, state, goal, len(v["wrist"]), "kalman")
+    np.testing.assert_allclose(alone.wrist[:, 0, ("left", "right").index(v["hand"])].numpy(), v["wrist"], atol=1e-4)
+    root = goal.positions[0, 6, 0, :2].numpy()  # the goal's root: the window's centre
+    assert v["root_error"] == pytest.approx(float(np.linalg.norm(alone.origin[-1, 0, :2].numpy() - root)), abs=1e-4)
+    for bad, match in (({"wait": -1.0}, "wait: expected a number of seconds"),
+                       ({"variant": "oracle"}, "variant: expected one of")):
+        with pytest.raises(ValueError, match=match):
+            cr.controller_reaches(run0, model, **bad)
+    with pytest.raises(ValueError, match="run: expected a PickAndPlace"):
+        cr.controller_reaches("run", model)
+    with pytest.raises(ValueError, match="model: expected a network.ControllerNet"):
+        cr.controller_reaches(run0, torch.nn.Linear(2, 2))
+
+
+def test_the_demos_controller_learns_from_reaches_and_the_cabinet_door():
+    from hoi_tutorial.choice.controller import network
+    from hoi_tutorial.choice.pick_and_place import controller_reaches as cr
+
+    demo_config, table4_config = cr.demo_controller_config("toy", seed=3), network.controller_config("toy", seed=3)
+    assert demo_config.kinds == ("reach_grasp", "open_door") and table4_config.kinds == ("reach_grasp",)
+    assert dataclasses.replace(demo_config, kinds=table4_config.kinds) == table4_config  # nothing else differs
+    assert cr.demo_controller_config("toy", steps=500).steps == 500  # overrides pass through
 
 
 def test_the_kitchen_has_a_bottle_inside_the_closed_cabinet():

@@ -15,12 +15,14 @@ Modules, in the order of the paper:
   ``motion_pieces``, its collision checks in ``checks`` and the small types they pass each other (the
   configuration, the setting, stances and plans) in ``demo_types``; the hands' approaches to the bottle and to the
   table are planned by §4's planner (``hand_paths``). The body there is posed by IK and the toy world's body
-  planner, not yet by the controller.
+  planner, not yet by the controller; ``controller_reaches`` measures how near the §5.1 controller brings each hand
+  to its contact there (the IK correction §6.3 would leave), with Table 4's controller or one trained on the demo's
+  actions.
 - ``table4``: Table 4's runs (§8.3.1) — the controller (§5) driven toward goals matched by §6.1 in unseen scenes,
   with each source of the goal phase.
 """
-from . import (checks, demo, demo_types, environment, goal_library, hand_paths, locomotion, motion_pieces, navigation,
-               scheduler, stances, table4)
+from . import (checks, controller_reaches, demo, demo_types, environment, goal_library, hand_paths, locomotion,
+               motion_pieces, navigation, scheduler, stances, table4)
 
 __all__ = ["environment", "goal_library", "navigation", "locomotion", "scheduler", "demo", "demo_types", "stances",
-           "motion_pieces", "hand_paths", "checks", "table4"]
+           "motion_pieces", "hand_paths", "checks", "controller_reaches", "table4"]

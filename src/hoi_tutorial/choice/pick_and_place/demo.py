@@ -52,7 +52,8 @@ Choices that are ours (the paper does not state them, or we simplify):
   the trunk bends (``world.mocap.standing.choose_bend``) so that the shoulders reach; the feet are planted
   except for the steps at the cabinet (A → B, B → the walk's start) and the walks. The mixture-of-experts controller of §5.1 (``choice.controller``) is evaluated
   separately (Table 4) and plays no part here; nor does §6.2's phase-driven interaction motion.
-  :func:`controller_at_cabinet` rolls the toy controller out toward the demo's handle keyframe to show why.
+  :func:`controller_at_cabinet` rolls the toy controller out toward the demo's handle keyframe to show why, and
+  ``controller_reaches`` measures how far IK would have to close each of the demo's three contacts after it.
 - **The matched keyframes** give the schedule, the hands and the walk goal; their poses are not imitated
   (the stances and bends above replace them).
 - **The hands** (``config.hands``). Eq. 24 prices single-handed matched keyframes: it sees where each hand grasps,
