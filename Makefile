@@ -66,7 +66,7 @@ lock:
 # Unit tests, then every chapter executed as a test with nbval in lax mode (a cell fails on an
 # exception or a failed assert). pytest exits with 5 when it collects no tests: not a failure.
 test: venv
-	@PATH="$(VENV_BIN):$$PATH" $(PY) -m pytest tests notebooks --nbval-lax --nbval-cell-timeout=$(CELL_TIMEOUT); rc=$$?; \
+	@PATH="$(VENV_BIN):$$PATH" HOI_PROGRESS=0 $(PY) -m pytest tests notebooks --nbval-lax --nbval-cell-timeout=$(CELL_TIMEOUT); rc=$$?; \
 	if [ $$rc -eq 5 ]; then echo "pytest collected no tests (treated as success)"; rc=0; fi; \
 	exit $$rc
 
@@ -87,7 +87,8 @@ unit-test-other-kernels: venv
 test-fresh: venv
 	@PATH="$(VENV_BIN):$$PATH" HYPOTHESIS_PROFILE=fast $(PY) -m pytest tests
 
-# MPLBACKEND is cleared so that the kernels draw figures inline into the pages.
+# MPLBACKEND is cleared so that the kernels draw figures inline into the pages; HOI_PROGRESS=0: a page shows
+# results, not training's progress bars (a reader's kernel shows them: hoi_tutorial.infra.progress).
 # A chapter that raises fails the build (execute.raise_on_error in _config.yml).
 # The build reads _config.yml with its cell timeout set to CELL_TIMEOUT (a copy in _build; nothing else differs).
 book: venv
@@ -95,7 +96,7 @@ book: venv
 	@sed 's/^  timeout: [0-9][0-9]*$$/  timeout: $(CELL_TIMEOUT)/' _config.yml > _build/_config.yml
 	@grep -q '^  timeout: $(CELL_TIMEOUT)$$' _build/_config.yml || { echo "_config.yml: expected a line '  timeout: N' under execute"; exit 1; }
 	@echo "book: cells may run $(CELL_TIMEOUT) s (CELL_TIMEOUT)"
-	PATH="$(VENV_BIN):$$PATH" env -u MPLBACKEND $(VENV_BIN)/jupyter-book build . --config _build/_config.yml $(BOOK_FLAGS)
+	PATH="$(VENV_BIN):$$PATH" HOI_PROGRESS=0 env -u MPLBACKEND $(VENV_BIN)/jupyter-book build . --config _build/_config.yml $(BOOK_FLAGS)
 	@echo "book: _build/html/index.html"
 
 bench: venv

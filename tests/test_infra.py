@@ -760,3 +760,87 @@ def test_library_keys_follow_the_library_imports():
     assert not any(m.startswith("hoi_tutorial.choice.controller") for m in planner_code)
     # a function defined outside the library (a test, a notebook cell) adds no module
     assert derived_code([_producer_a]) == []
+
+
+def _build_trained(name):
+    # A build that trains a small model for a second or so (its bar is what the test watches).
+    from hoi_tutorial.infra import TrainerConfig, train
+
+    def build():
+        model = torch.nn.Linear(4, 1)
+        x = torch.randn(64, 4, generator=torch.Generator().manual_seed(0))
+
+        def loss_fn(m, batch):
+            time.sleep(0.004)
+            return (m(batch) - 1.0).pow(2).mean()
+
+        train(model, lambda step, g: x, loss_fn, TrainerConfig(steps=300, log_every=10, device="cpu", progress=False))
+        return model.weight.detach()
+
+    return load_or_build(name, {}, build, verbose=False)
+
+
+def test_progress_shows_in_a_kernel_or_where_asked(monkeypatch):
+    from hoi_tutorial.infra import progress
+
+    monkeypatch.setattr(progress, "_override", None)
+    monkeypatch.delenv("HOI_PROGRESS", raising=False)
+    assert not progress.progress_enabled()  # a test run is no Jupyter kernel
+    for value, expected in (("1", True), ("on", True), ("0", False), ("false", False)):
+        monkeypatch.setenv("HOI_PROGRESS", value)
+        assert progress.progress_enabled() is expected
+    monkeypatch.setenv("HOI_PROGRESS", "sometimes")
+    with pytest.raises(ValueError, match="HOI_PROGRESS: expected 1 or 0"):
+        progress.progress_enabled()
+    monkeypatch.setenv("HOI_PROGRESS", "0")
+    progress.show_progress(True)  # the call wins over the environment
+    assert progress.progress_enabled()
+    progress.show_progress(None)
+    assert not progress.progress_enabled()
+    with pytest.raises(ValueError, match="on: expected True, False or None"):
+        progress.show_progress("yes")
+    # a bar asked for shows; one not asked for follows the default
+    assert not progress.progress_bar(range(3), 3, "x", enabled=True).disable
+    assert progress.progress_bar(range(3), 3, "x").disable
+    # in a kernel's shell, or one derived from it (Colab's), bars show by default
+    zmqshell = pytest.importorskip("ipykernel.zmqshell")
+    import IPython
+
+    class ColabLikeShell(zmqshell.ZMQInteractiveShell):
+        pass
+
+    monkeypatch.delenv("HOI_PROGRESS")
+    monkeypatch.setattr(IPython, "get_ipython", lambda: object.__new__(ColabLikeShell))
+    assert progress.progress_enabled()
+    monkeypatch.setenv("HOI_PROGRESS", "0")  # the book build's setting wins over the kernel
+    assert not progress.progress_enabled()
+
+
+def test_a_workers_training_bar_is_drawn_in_this_process(isolated_cache, monkeypatch):
+    """A build in a ``warm_cache`` worker sends its bar; this process's listener draws it, up to the last step."""
+    import functools
+
+    from hoi_tutorial.infra import progress, warm_cache
+
+    drawn = []
+    draw = progress.BarListener._draw
+
+    def record(self, key, desc, n, total, postfix, closed):
+        drawn.append((key[0], desc, n, total, postfix, closed))
+        draw(self, key, desc, n, total, postfix, closed)
+
+    monkeypatch.setattr(progress.BarListener, "_draw", record)
+    monkeypatch.setattr(progress, "_override", True)
+    calls = [functools.partial(_build_trained, f"trained{i}") for i in range(3)]
+    warm_cache(calls, workers=2)
+    from_workers = [d for d in drawn if d[0] != os.getpid()]
+    assert from_workers, drawn  # a worker built something, and its bar came here
+    assert {d[1] for d in from_workers} == {"Linear"} and all(d[3] == 300 for d in from_workers)
+    closed = [d for d in from_workers if d[5]]
+    assert closed and all(d[2] == 300 for d in closed)  # each worker's bar ends at its last step
+    assert any("loss=" in d[4] for d in from_workers)
+    # off: no queue, nothing drawn
+    drawn.clear()
+    monkeypatch.setattr(progress, "_override", False)
+    warm_cache([functools.partial(_build_trained, f"quiet{i}") for i in range(3)], workers=2)
+    assert drawn == []

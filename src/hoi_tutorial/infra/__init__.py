@@ -1,5 +1,5 @@
 """Infrastructure every chapter shares: scale presets, seeding, device choice, the artifact
-cache, a model-agnostic training loop and paper-vs-ours tables."""
+cache, a model-agnostic training loop, progress bars (also from worker processes) and paper-vs-ours tables."""
 from .cache import (
     CorruptArtifactWarning,
     NotCachedError,
@@ -14,6 +14,7 @@ from .cache import (
 from .device import choose_device, one_thread, single_threaded, threads_allowed
 from .pack import PackMismatchError, make_pack, read_manifest, release_pack_url, unpack, use_pretrained
 from .parallel import available_cores, warm_cache
+from .progress import progress_enabled, show_progress
 from .presets import SCALES, by_scale, check_scale, scaled_config
 from .seeding import check_seed, rng, seed_everything
 from .tables import format_seconds, side_by_side
@@ -27,6 +28,6 @@ __all__ = [
     "CorruptArtifactWarning", "NotCachedError", "cache_only", "artifact_key", "artifact_path", "cache_dir", "clear_cache",
     "load_or_build", "state_dict_to_cpu",
     "TrainerConfig", "TrainResult", "TrainedModel", "trainer_config", "learning_rate_factor", "move_to_device", "train",
-    "format_seconds", "side_by_side",
+    "format_seconds", "side_by_side", "show_progress", "progress_enabled",
     "PackMismatchError", "make_pack", "read_manifest", "release_pack_url", "unpack", "use_pretrained",
 ]

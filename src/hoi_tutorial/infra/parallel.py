@@ -21,6 +21,7 @@ import threading
 import time
 from typing import Callable, Optional, Sequence
 
+from . import progress
 from .cache import NotCachedError, cache_only
 
 __all__ = ["available_cores", "warm_cache"]
@@ -37,7 +38,7 @@ def available_cores() -> int:
 def _run(call: Callable[[], object]) -> tuple[str, float]:
     # In the worker: one torch thread; the return value stays here (only the cache matters), and what the
     # build prints goes back as text with its seconds: a worker's own output would reach the terminal that
-    # started the notebook's kernel, never the notebook.
+    # started the notebook's kernel, never the notebook (its progress bars are sent on: ``progress``).
     import torch
 
     torch.set_num_threads(1)
@@ -134,7 +135,13 @@ def warm_cache(calls: Sequence[Callable[[], object]], workers: Optional[int] = N
 
     # "spawn": a fresh interpreter, never a fork of a process that already runs torch threads.
     context = multiprocessing.get_context("spawn")
-    with concurrent.futures.ProcessPoolExecutor(max_workers=workers - 1, mp_context=context) as pool:
+    # where this process shows progress, the workers send their bars here, and a thread draws them
+    shown = progress.progress_enabled()
+    sink = context.Queue() if shown else None
+    listener = progress.BarListener(sink) if shown else contextlib.nullcontext()
+    with concurrent.futures.ProcessPoolExecutor(max_workers=workers - 1, mp_context=context,
+                                                initializer=progress.set_worker_sink,
+                                                initargs=(sink, shown)) as pool, listener:
         feeders = [threading.Thread(target=feed, args=(pool,), daemon=True) for _ in range(workers - 1)]
         for thread in feeders:
             thread.start()

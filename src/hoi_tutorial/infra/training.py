@@ -24,10 +24,9 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Optional, Sequence
 
 import torch
-from tqdm.auto import tqdm
-
 from .._validate import check_choice, check_positive_ints
 from .device import choose_device
+from .progress import progress_bar
 from .seeding import check_seed
 
 __all__ = ["TrainerConfig", "TrainResult", "TrainedModel", "train", "trainer_config", "learning_rate_factor",
@@ -56,7 +55,8 @@ class TrainerConfig:
         log_every: read the losses back from the device (one sync) and update the progress bar
             every this many steps; a NaN or infinite loss is reported at the next read-back.
         device: ``"auto"``, ``"cpu"``, ``"cuda"``, ``"cuda:N"`` or ``"mps"``.
-        progress: show a progress bar.
+        progress: ``True`` always shows a progress bar; ``False`` shows one where progress shows by default (a
+            Jupyter kernel, ``HOI_PROGRESS=1``, ``infra.show_progress()``: ``infra.progress``).
         seed: seeds the batch generator and the random state used inside the model (dropout).
         optimizer: ``"adamw"`` or ``"adam"``.
     """
@@ -70,7 +70,7 @@ class TrainerConfig:
     warmup_steps: int = 0
     log_every: int = 50
     device: str = "auto"
-    progress: bool = True
+    progress: bool = False
     seed: int = 0
     optimizer: str = "adamw"
 
@@ -263,8 +263,9 @@ def train(model: torch.nn.Module, sample_batch: Callable[[int, torch.Generator],
     # Seed the global state the model's own randomness reads (dropout), then put it back.
     with torch.random.fork_rng(devices=cuda_devices):
         torch.manual_seed(config.seed)
-        bar = tqdm(range(config.steps), disable=not config.progress, leave=False,
-                   desc=type(model).__name__)
+        # a bar where progress shows (``progress.progress_enabled``), always when asked for; drawn in the
+        # notebook's process when this runs in a ``warm_cache`` worker
+        bar = progress_bar(range(config.steps), config.steps, type(model).__name__, enabled=config.progress or None)
         pending = []  # (step, loss tensor, logs) since the last read-back: one device sync per interval
 
         def flush():

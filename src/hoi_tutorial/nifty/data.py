@@ -170,7 +170,7 @@ def prune_settings(config: SyntheticDataConfig, check_skating: Optional[bool] = 
     return dataclasses.replace(config.prune, joint_limits=joint_limits_from(clips), skating=skating)
 
 
-def trained_prior(config: SyntheticDataConfig, device: str = "cpu", progress: bool = True):
+def trained_prior(config: SyntheticDataConfig, device: str = "cpu", progress: bool = False):
     """The reverse prior for ``config``, trained once and then loaded from the artifact cache.
 
     Returns a :class:`~hoi_tutorial.infra.TrainedModel` (the prior in eval mode, its losses and
@@ -259,7 +259,7 @@ def _collected_anchors(action: str, n_subjects: int, anchors_per_subject: int, s
     return tuple(collect_anchors(action, n_subjects, anchors_per_subject, seed, rounds))
 
 
-def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool = True) -> SyntheticDataset:
+def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool = False) -> SyntheticDataset:
     """Run (or load) the whole synthetic-data pipeline for one interaction."""
     trained = trained_prior(config, device=device, progress=progress)
     prior = trained.model

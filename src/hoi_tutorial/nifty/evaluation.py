@@ -172,7 +172,7 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
             with ``trained_motion_model``).
         config: an :class:`EvaluationConfig`.
         device: where to train (if needed) and sample.
-        progress: progress bar while training.
+        progress: True always shows training's progress bar; False, where ``infra.progress`` shows one (a notebook).
     Returns:
         a :class:`MotionModelEvaluation`.
     """

@@ -568,7 +568,7 @@ def trained_interaction_field(dataset, model_config, config: InteractionFieldCon
         model_config: the ``nifty.motion_model.MotionModelConfig`` of the diffusion model.
         config: an :class:`InteractionFieldConfig`.
         device: where to train.
-        progress: show progress bars.
+        progress: True always shows training's progress bar; False, where ``infra.progress`` shows one (a notebook).
     Returns:
         a :class:`~hoi_tutorial.infra.TrainedModel` (the field in eval mode on the CPU) whose
         ``details`` hold ``n_pairs`` and ``zero_field_loss``: the training loss of a field that

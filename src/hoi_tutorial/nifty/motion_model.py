@@ -455,7 +455,7 @@ def train_motion_model(tensors: InteractionTensors, config: MotionModelConfig, d
         tensors: the training sequences (``tensors.max_frames`` must equal ``config.max_frames``).
         config: the model and training settings.
         device: ``"cpu"``, ``"cuda"``, ``"auto"``, ...; the model is returned there.
-        progress: show a progress bar.
+        progress: True always shows training's progress bar; False, where ``infra.progress`` shows one (a notebook).
     Returns:
         ``(model in eval mode, TrainResult)``.
     """
@@ -485,14 +485,14 @@ def model_code() -> tuple:
     return (sys.modules[__name__],) + tuple(importlib.import_module(name, __package__) for name in _MODEL_CODE)
 
 
-def trained_motion_model(dataset, config: MotionModelConfig, device="cpu", progress: bool = True):
+def trained_motion_model(dataset, config: MotionModelConfig, device="cpu", progress: bool = False):
     """The motion model for a synthetic dataset, trained once and then loaded from the artifact cache.
 
     Args:
         dataset: a ``nifty.data.SyntheticDataset`` (its ``sequences`` are the training data).
         config: a :class:`MotionModelConfig`.
         device: where to train (the returned model is on the CPU).
-        progress: show a progress bar while training.
+        progress: True always shows training's progress bar; False, where ``infra.progress`` shows one (a notebook).
     Returns:
         a :class:`~hoi_tutorial.infra.TrainedModel`: the model in eval mode on the CPU, its losses and
         training seconds, and ``details["n_sequences"]``, the training sequences.

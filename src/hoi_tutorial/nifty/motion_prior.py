@@ -353,7 +353,7 @@ def _fit_normalisation(model: ReversePrior, data) -> None:
 
 @single_threaded
 def train_reverse_prior(motions: Sequence[Motion], config: Optional[PriorConfig] = None,
-                        device: str = "cpu", progress: bool = True):
+                        device: str = "cpu", progress: bool = False):
     """Train the reverse prior on reversed clips with scheduled sampling.
 
     Loss per step (HuMoR): ``||Δ̂ - Δ||²`` in normalised units, plus ``w_legs ·`` the squared error

@@ -363,7 +363,7 @@ def train_toy2d_denoiser(config: Toy2DConfig, device="cpu", progress: bool = Fal
     Args:
         config: a :class:`Toy2DConfig`.
         device: where to train (``"cpu"``, ``"auto"``, ``"cuda"`` …); the model stays there.
-        progress: show a progress bar.
+        progress: True always shows training's progress bar; False, where ``infra.progress`` shows one (a notebook).
 
     Returns:
         ``(model in eval mode, TrainResult)``.

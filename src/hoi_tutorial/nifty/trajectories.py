@@ -308,7 +308,7 @@ def train_trajectory_denoiser(config: TrajectoryModelConfig, trajectories: torch
         config: a :class:`TrajectoryModelConfig`.
         trajectories: ``(N, T, 3)`` metres, canonical frame (:func:`make_walk_trajectories`).
         device: where to train; the model stays there.
-        progress: show a progress bar.
+        progress: True always shows training's progress bar; False, where ``infra.progress`` shows one (a notebook).
 
     Returns:
         ``(model in eval mode, codec, TrainResult)``.
