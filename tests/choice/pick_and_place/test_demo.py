@@ -188,18 +188,34 @@ def test_the_same_seed_gives_the_same_motion_and_the_cache_gives_it_back(run0):
         pp.cached_pick_and_place(0, config={"hands": "eq24"})
 
 
-def test_the_controller_at_the_cabinet_gets_the_demos_handle_keyframe_and_both_starts(run0):
-    """The goal is the demo's door hand on the handle; the standing start is where the demo's reach begins; the
-    two starts rolled out in one batch give what each gives alone (untrained weights: the wiring, not the skill)."""
+def _untrained_controller():
+    """Table 4's toy controller with seeded, untrained weights (the wiring, not the skill)."""
     import torch
 
-    from hoi_tutorial.choice.controller import network, phase, runtime
-    from hoi_tutorial.world.skeleton import joint_index
+    from hoi_tutorial.choice.controller import network, phase
 
     config = network.controller_config("toy")
     torch.manual_seed(0)
     model = network.build_controller(config, phase.build_phase_autoencoder(phase.phase_config(config.phase_scale)))
-    model.eval()
+    return model.eval()
+
+
+def _assert_checks_run_and_model(function, run, model):
+    import torch
+
+    with pytest.raises(ValueError, match="run: expected a PickAndPlace"):
+        function("run", model)
+    with pytest.raises(ValueError, match="model: expected a network.ControllerNet"):
+        function(run, torch.nn.Linear(2, 2))
+
+
+def test_the_controller_at_the_cabinet_gets_the_demos_handle_keyframe_and_both_starts(run0):
+    """The goal is the demo's door hand on the handle; the standing start is where the demo's reach begins; the
+    two starts rolled out in one batch give what each gives alone (untrained weights: the wiring, not the skill)."""
+    from hoi_tutorial.choice.controller import runtime
+    from hoi_tutorial.world.skeleton import joint_index
+
+    model = _untrained_controller()
     out = pp.controller_at_cabinet(run0, model, frames=8, lead=0.5)
     g = run0.phase("grasp handle")[0]
     door_wrist = joint_index(f"{run0.hands['door']}_wrist")
@@ -224,26 +240,18 @@ def test_the_controller_at_the_cabinet_gets_the_demos_handle_keyframe_and_both_s
     for bad, match in (({"frames": 0}, "frames: expected a positive int"), ({"lead": 0.0}, "lead: expected a positive")):
         with pytest.raises(ValueError, match=match):
             pp.controller_at_cabinet(run0, model, **bad)
-    with pytest.raises(ValueError, match="run: expected a PickAndPlace"):
-        pp.controller_at_cabinet("run", model)
-    with pytest.raises(ValueError, match="model: expected a network.ControllerNet"):
-        pp.controller_at_cabinet(run0, torch.nn.Linear(2, 2))
+    _assert_checks_run_and_model(pp.controller_at_cabinet, run0, model)
 
 
 def test_controller_reaches_start_where_each_approach_starts_and_aim_at_the_demos_contacts(run0):
     """Each contact's goal is the demo's keyframe there (the working wrist on the handle, the bottle's grasp point,
     the spot over the table); the rollout starts where the demo's approach starts; the three contacts rolled out in
     one batch give what one gives alone (untrained weights: the wiring, not the skill)."""
-    import torch
-
-    from hoi_tutorial.choice.controller import network, phase, runtime
+    from hoi_tutorial.choice.controller import runtime
     from hoi_tutorial.choice.pick_and_place import controller_reaches as cr
     from hoi_tutorial.world.skeleton import joint_index
 
-    config = network.controller_config("toy")
-    torch.manual_seed(0)
-    model = network.build_controller(config, phase.build_phase_autoencoder(phase.phase_config(config.phase_scale)))
-    model.eval()
+    model = _untrained_controller()
     out = cr.controller_reaches(run0, model, wait=0.2)
     assert list(out) == ["handle", "bottle", "table"]
     roles = {"handle": "door", "bottle": "bottle", "table": "bottle"}
@@ -276,10 +284,7 @@ def test_controller_reaches_start_where_each_approach_starts_and_aim_at_the_demo
                        ({"variant": "oracle"}, "variant: expected one of")):
         with pytest.raises(ValueError, match=match):
             cr.controller_reaches(run0, model, **bad)
-    with pytest.raises(ValueError, match="run: expected a PickAndPlace"):
-        cr.controller_reaches("run", model)
-    with pytest.raises(ValueError, match="model: expected a network.ControllerNet"):
-        cr.controller_reaches(run0, torch.nn.Linear(2, 2))
+    _assert_checks_run_and_model(cr.controller_reaches, run0, model)
 
 
 def test_the_demos_controller_learns_from_reaches_and_the_cabinet_door():

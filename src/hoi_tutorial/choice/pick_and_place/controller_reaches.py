@@ -34,6 +34,7 @@ import dataclasses
 import numpy as np
 import torch
 
+from ..._validate import check_choice
 from ...world.mocap.body_plan import SIDES
 from ...world.motion import FPS
 from ..controller import features, network, runtime
@@ -79,8 +80,7 @@ def controller_reaches(run: PickAndPlace, model: network.ControllerNet, wait: fl
         raise ValueError(f"model: expected a network.ControllerNet, got {type(model).__name__}")
     if isinstance(wait, bool) or not isinstance(wait, (int, float)) or not wait >= 0:
         raise ValueError(f"wait: expected a number of seconds >= 0, got {wait!r}")
-    if variant not in features.VARIANTS:
-        raise ValueError(f"variant: expected one of {features.VARIANTS}, got {variant!r}")
+    check_choice(variant, features.VARIANTS, "variant")
     motion = run.motion
     rows = []
     for name, approach, contact, role in CONTACTS:
