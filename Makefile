@@ -9,6 +9,8 @@ TORCH_SPEC ?= torch==2.13.0
 TORCH_INDEX_URL ?=
 # Extra flags for `jupyter-book build`, e.g. BOOK_FLAGS=--all for a full rebuild.
 BOOK_FLAGS ?=
+# Extra flags for pytest in `make unit-test` and `make unit-test-other-kernels`, e.g. PYTEST_ARGS="-x".
+PYTEST_ARGS ?=
 # Extra flags for scripts/bench.py, e.g. BENCH_ARGS="--notebooks 01_toy_world --isolated".
 BENCH_ARGS ?=
 # The exact versions `make venv` installs (a pip constraints file; `make lock` regenerates it), used where the
@@ -74,13 +76,13 @@ test: venv
 # book build, which fails on any error or failed assert).
 unit-test: venv
 	@PATH="$(VENV_BIN):$$PATH" $(PY) scripts/numeric_env.py --show
-	@PATH="$(VENV_BIN):$$PATH" $(PY) -m pytest tests
+	@PATH="$(VENV_BIN):$$PATH" $(PY) -m pytest tests $(PYTEST_ARGS)
 
 # The library's tests again, with other BLAS and vector kernels than this CPU's own (scripts/numeric_env.py):
 # what another machine does to the last bits. A test that depends on them fails here.
 unit-test-other-kernels: venv
 	@eval "$$($(PY) scripts/numeric_env.py --other)"; \
-	PATH="$(VENV_BIN):$$PATH" $(PY) scripts/numeric_env.py --show && PATH="$(VENV_BIN):$$PATH" $(PY) -m pytest tests
+	PATH="$(VENV_BIN):$$PATH" $(PY) scripts/numeric_env.py --show && PATH="$(VENV_BIN):$$PATH" $(PY) -m pytest tests $(PYTEST_ARGS)
 
 # The library's tests with fresh hypothesis examples (a new draw every run), to look for counterexamples; a
 # failure prints the example to pin down with @example.
