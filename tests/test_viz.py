@@ -369,6 +369,26 @@ def test_animation_2d_views_with_objects_and_frame_cap(small_motion, chair, view
     assert ax.get_aspect() == 1.0
 
 
+@pytest.mark.parametrize("view", ["3d", "side"])
+def test_animations_given_each_others_joints_share_their_axes(small_motion, view):
+    moved = small_motion.joints.numpy() + np.array([1.5, 1.5, 0.0])  # the same body 2 m away on the ground
+    alone = viz.animate_motion(small_motion, view=view, stride=1, figsize=(3, 3), dpi=40)
+    first = viz.animate_motion(small_motion, view=view, stride=1, figsize=(3, 3), dpi=40, frame_points=moved)
+    second = viz.animate_motion(moved, view=view, stride=1, figsize=(3, 3), dpi=40,
+                                frame_points=small_motion.joints.numpy())
+
+    def limits(anim):
+        ax = anim._fig.axes[0]
+        return np.array([ax.get_xlim(), ax.get_ylim()] + ([ax.get_zlim()] if view == "3d" else []))
+
+    np.testing.assert_allclose(limits(first), limits(second))
+    assert limits(first)[0, 1] > limits(alone)[0, 1] + 1.0  # the other body widened the view
+    with pytest.raises(ValueError, match=r"frame_points: expected finite world points"):
+        viz.animate_motion(small_motion, frame_points=np.zeros((4, 2)))
+    for anim in (alone, first, second):
+        plt.close(anim._fig)
+
+
 def test_animation_caption_tracks_time_and_action(small_motion):
     anim = viz.animate_motion(small_motion, view="side", stride=1, figsize=(3, 3), dpi=40)
     anim._func(5)

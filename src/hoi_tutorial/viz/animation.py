@@ -147,7 +147,7 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), moving_
                    fps: Optional[float] = None,
                    stride: int = 2, trail_joint: Optional[str] = "pelvis", figsize=(5, 5), max_frames: int = 150,
                    dpi: int = 64, color_by_side: bool = True, title: Optional[str] = None,
-                   elev: float = 22.0, azim: float = 60.0) -> FuncAnimation:
+                   elev: float = 22.0, azim: float = 60.0, frame_points=None) -> FuncAnimation:
     """Animate one or several motions as stick figures with fixed axes and the objects around them.
 
     Args:
@@ -168,6 +168,8 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), moving_
         color_by_side: left limbs blue, right limbs red.
         title: text shown above the time (and action label, when the clip has labels).
         elev, azim: 3D camera angles in degrees (the default looks from the front-right, above).
+        frame_points: world points ``(N, 3)`` metres the axes must also hold, or None. Two animations shown side by
+            side get the same axes when each is given the other's joints (with the same objects).
     Returns:
         ``matplotlib.animation.FuncAnimation`` (see :func:`to_html`, :func:`show_animation`).
     """
@@ -192,6 +194,13 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), moving_
     colors = bone_colors(color_by_side)
     bone_idx = np.array(_BONES)
     object_points = [_object_mesh(o)[0] for o in objects] + [_object_mesh(m(0))[0] for m in moving_objects]
+    if frame_points is not None:
+        frame_points = np.asarray(frame_points, dtype=float)
+        if frame_points.ndim < 2 or frame_points.shape[-1] != 3 or frame_points.size == 0 \
+                or not np.isfinite(frame_points).all():
+            raise ValueError(f"frame_points: expected finite world points (..., 3) in metres, got shape "
+                             f"{frame_points.shape}")
+        object_points.append(frame_points.reshape(-1, 3))
     allpts = np.vstack([s.reshape(-1, 3) for s in seqs] + object_points)
 
     if view == "3d":
