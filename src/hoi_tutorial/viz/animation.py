@@ -168,8 +168,9 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), moving_
         color_by_side: left limbs blue, right limbs red.
         title: text shown above the time (and action label, when the clip has labels).
         elev, azim: 3D camera angles in degrees (the default looks from the front-right, above).
-        frame_points: world points ``(N, 3)`` metres the axes must also hold, or None. Two animations shown side by
-            side get the same axes when each is given the other's joints (with the same objects).
+        frame_points: world points ``(..., 3)`` metres (e.g. joints ``(T, 22, 3)``) the axes must also hold, or None.
+            Two animations shown side by side get the same axes when each is given the other's joints (with the
+            same objects).
     Returns:
         ``matplotlib.animation.FuncAnimation`` (see :func:`to_html`, :func:`show_animation`).
     """
