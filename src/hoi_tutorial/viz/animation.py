@@ -169,7 +169,7 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), moving_
         title: text shown above the time (and action label, when the clip has labels).
         elev, azim: 3D camera angles in degrees (the default looks from the front-right, above).
         frame_points: world points ``(..., 3)`` metres (e.g. joints ``(T, 22, 3)``) the axes must also hold, or None.
-            Two animations shown side by side get the same axes when each is given the other's joints (with the
+            Two animations shown side by side get the same axes when both are given the joints of both (with the
             same objects).
     Returns:
         ``matplotlib.animation.FuncAnimation`` (see :func:`to_html`, :func:`show_animation`).
@@ -195,14 +195,15 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), moving_
     colors = bone_colors(color_by_side)
     bone_idx = np.array(_BONES)
     object_points = [_object_mesh(o)[0] for o in objects] + [_object_mesh(m(0))[0] for m in moving_objects]
+    framed = []  # points the axes hold besides the bodies and objects
     if frame_points is not None:
         frame_points = np.asarray(frame_points, dtype=float)
         if frame_points.ndim < 2 or frame_points.shape[-1] != 3 or frame_points.size == 0 \
                 or not np.isfinite(frame_points).all():
             raise ValueError(f"frame_points: expected finite world points (..., 3) in metres, got shape "
                              f"{frame_points.shape}")
-        object_points.append(frame_points.reshape(-1, 3))
-    allpts = np.vstack([s.reshape(-1, 3) for s in seqs] + object_points)
+        framed.append(frame_points.reshape(-1, 3))
+    allpts = np.vstack([s.reshape(-1, 3) for s in seqs] + object_points + framed)
 
     if view == "3d":
         ax = fig.add_subplot(projection="3d")
