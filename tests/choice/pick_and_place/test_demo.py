@@ -287,6 +287,54 @@ def test_controller_reaches_start_where_each_approach_starts_and_aim_at_the_demo
     _assert_checks_run_and_model(cr.controller_reaches, run0, model)
 
 
+def test_the_cached_controller_measures_are_the_direct_ones_and_load_back(run0, monkeypatch):
+    """cached_controller_at_cabinet and cached_controller_reaches roll out once what the direct calls give (the
+    cached demo, the configuration's controller) and load it afterwards without a rollout (untrained weights: the
+    wiring, not the skill)."""
+    import types
+
+    from hoi_tutorial.choice.controller import network
+    from hoi_tutorial.choice.pick_and_place import controller_reaches as cr
+
+    model = _untrained_controller()
+    built = []
+
+    def trained_controller(config, *args, **kwargs):  # stands for the trained one, counting the builds
+        built.append(config)
+        return types.SimpleNamespace(model=model)
+
+    monkeypatch.setattr(network, "trained_controller", trained_controller)
+    controller = network.controller_config("toy")
+    config = pp.PickAndPlaceConfig()
+    direct_cabinet = pp.controller_at_cabinet(run0, model, frames=8, lead=0.5)
+    direct_reaches = cr.controller_reaches(run0, model, wait=0.2)
+    for attempt in range(2):
+        cabinet = pp.cached_controller_at_cabinet(0, config, controller, frames=8, lead=0.5)
+        reaches = cr.cached_controller_reaches(0, config, controller, wait=0.2)
+        assert len(built) == 2  # built on the first call only, with the configuration asked for
+        assert built == [controller, controller]
+        assert cabinet["starts"].keys() == direct_cabinet["starts"].keys()
+        for start, v in direct_cabinet["starts"].items():
+            assert cabinet["starts"][start]["frame"] == v["frame"]
+            for variant, closest in v["closest"].items():
+                assert cabinet["starts"][start]["closest"][variant] == pytest.approx(closest, abs=1e-6)
+        assert list(reaches) == list(direct_reaches) == ["handle", "bottle", "table"]
+        for name, v in direct_reaches.items():
+            assert reaches[name]["hand"] == v["hand"] and reaches[name]["due"] == v["due"]
+            np.testing.assert_allclose(reaches[name]["wrist"], v["wrist"], atol=1e-6)
+            assert reaches[name]["correction"] == pytest.approx(v["correction"], abs=1e-6)
+    # another controller configuration is another artifact
+    cr.cached_controller_reaches(0, config, cr.demo_controller_config("toy"), wait=0.2)
+    assert len(built) == 3
+    for function in (pp.cached_controller_at_cabinet, cr.cached_controller_reaches):
+        with pytest.raises(ValueError, match="seed: expected a non-negative int"):
+            function(-1, config, controller)
+        with pytest.raises(ValueError, match="config: expected a PickAndPlaceConfig"):
+            function(0, {"hands": "eq24"}, controller)
+        with pytest.raises(ValueError, match="controller: expected a network.ControllerConfig"):
+            function(0, config, model)
+
+
 def test_the_demos_controller_learns_from_reaches_and_the_cabinet_door():
     from hoi_tutorial.choice.controller import network
     from hoi_tutorial.choice.pick_and_place import controller_reaches as cr

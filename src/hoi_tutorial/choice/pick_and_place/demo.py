@@ -123,6 +123,7 @@ __all__ = [
     "pick_and_place",
     "cached_pick_and_place",
     "controller_at_cabinet",
+    "cached_controller_at_cabinet",
     "body_points",  # from checks, re-exported
     "evaluate",  # from checks, re-exported
 ]
@@ -534,6 +535,30 @@ def controller_at_cabinet(run: PickAndPlace, model, frames: int = 60, lead: floa
                                "closest": {v: float(closest[v][k]) for v in features.VARIANTS},
                                "root_error": {v: float(root_error[v][k]) for v in features.VARIANTS}}
     return out
+
+
+def cached_controller_at_cabinet(seed: int, config: PickAndPlaceConfig, controller: network.ControllerConfig,
+                                 frames: int = 60, lead: float = 1.0) -> dict:
+    """:func:`controller_at_cabinet` through the artifact cache, for the demo of ``seed`` and ``config``
+    (:func:`cached_pick_and_place`) and the controller trained with ``controller``
+    (``network.trained_controller``): rolled out once, then loaded (the chapter opened again, or from a pretrained
+    pack, runs none of its eight rollouts). The rollouts run on the CPU."""
+    seed = _check_seed(seed)
+    if not isinstance(config, PickAndPlaceConfig):
+        raise ValueError(f"config: expected a PickAndPlaceConfig (pick_and_place_config), got {type(config).__name__}")
+    if not isinstance(controller, network.ControllerConfig):
+        raise ValueError(f"controller: expected a network.ControllerConfig (network.controller_config), got "
+                         f"{type(controller).__name__}")
+
+    def build():
+        return controller_at_cabinet(cached_pick_and_place(seed, config), network.trained_controller(controller).model,
+                                     frames, lead)
+
+    # as the demo's artifact: the kitchens, the body, the motion data and the trained models all shape the rollouts
+    key = {"seed": seed, "config": dataclasses.asdict(config), "controller": dataclasses.asdict(controller),
+           "frames": frames, "lead": lead}
+    return load_or_build("choice_controller_at_cabinet", key, build,
+                         code=(sys.modules[__package__.rpartition(".")[0]], world, nn, infra))
 
 
 def _forward2(heading: float) -> np.ndarray:
