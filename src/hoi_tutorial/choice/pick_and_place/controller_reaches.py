@@ -30,18 +30,15 @@ from.
 from __future__ import annotations
 
 import dataclasses
-import sys
 
 import numpy as np
 import torch
 
-from ... import infra, nn, world
 from ..._validate import check_choice
-from ...infra import load_or_build
 from ...world.mocap.body_plan import SIDES
 from ...world.motion import FPS
 from ..controller import features, network, runtime
-from .demo import cached_pick_and_place
+from .demo import cached_controller_measure
 from .demo_types import PickAndPlace, PickAndPlaceConfig
 
 __all__ = ["CONTACTS", "DEMO_KINDS", "demo_controller_config", "controller_reaches", "cached_controller_reaches"]
@@ -119,25 +116,7 @@ def controller_reaches(run: PickAndPlace, model: network.ControllerNet, wait: fl
 
 def cached_controller_reaches(seed: int, config: PickAndPlaceConfig, controller: network.ControllerConfig,
                               wait: float = 1.0, variant: str = "kalman") -> dict:
-    """:func:`controller_reaches` through the artifact cache, for the demo of ``seed`` and ``config``
-    (``demo.cached_pick_and_place``) and the controller trained with ``controller`` (``network.trained_controller``):
-    rolled out once, then loaded. The rollouts run on the CPU."""
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed: expected a non-negative int, got {seed!r}")
-    seed = int(seed)
-    if not isinstance(config, PickAndPlaceConfig):
-        raise ValueError(f"config: expected a PickAndPlaceConfig (demo.pick_and_place_config), got "
-                         f"{type(config).__name__}")
-    if not isinstance(controller, network.ControllerConfig):
-        raise ValueError(f"controller: expected a network.ControllerConfig (network.controller_config), got "
-                         f"{type(controller).__name__}")
-
-    def build():
-        model = network.trained_controller(controller).model
-        return controller_reaches(cached_pick_and_place(seed, config), model, wait, variant)
-
-    # as the demo's artifact: the kitchens, the body, the motion data and the trained models all shape the rollouts
-    key = {"seed": seed, "config": dataclasses.asdict(config), "controller": dataclasses.asdict(controller),
-           "wait": wait, "variant": variant}
-    return load_or_build("choice_controller_reaches", key, build,
-                         code=(sys.modules[__package__.rpartition(".")[0]], world, nn, infra))
+    """:func:`controller_reaches` through the artifact cache (``demo.cached_controller_measure``), for the demo of
+    ``seed`` and ``config`` and the controller trained with ``controller``: rolled out once, then loaded."""
+    return cached_controller_measure("choice_controller_reaches", controller_reaches, seed, config, controller,
+                                     wait=wait, variant=variant)

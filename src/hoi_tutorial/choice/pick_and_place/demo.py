@@ -123,6 +123,7 @@ __all__ = [
     "pick_and_place",
     "cached_pick_and_place",
     "controller_at_cabinet",
+    "cached_controller_measure",
     "cached_controller_at_cabinet",
     "body_points",  # from checks, re-exported
     "evaluate",  # from checks, re-exported
@@ -537,12 +538,12 @@ def controller_at_cabinet(run: PickAndPlace, model, frames: int = 60, lead: floa
     return out
 
 
-def cached_controller_at_cabinet(seed: int, config: PickAndPlaceConfig, controller: network.ControllerConfig,
-                                 frames: int = 60, lead: float = 1.0) -> dict:
-    """:func:`controller_at_cabinet` through the artifact cache, for the demo of ``seed`` and ``config``
-    (:func:`cached_pick_and_place`) and the controller trained with ``controller``
+def cached_controller_measure(name: str, measure, seed: int, config: PickAndPlaceConfig,
+                              controller: network.ControllerConfig, **arguments):
+    """``measure(run, model, **arguments)`` through the artifact cache (``name``), for the demo of ``seed`` and
+    ``config`` (:func:`cached_pick_and_place`) and the controller trained with ``controller``
     (``network.trained_controller``): rolled out once, then loaded (the chapter opened again, or from a pretrained
-    pack, runs none of its eight rollouts). The rollouts run on the CPU."""
+    pack, runs none of its rollouts). The rollouts run on the CPU; ``measure`` checks its own arguments."""
     seed = _check_seed(seed)
     if not isinstance(config, PickAndPlaceConfig):
         raise ValueError(f"config: expected a PickAndPlaceConfig (pick_and_place_config), got {type(config).__name__}")
@@ -551,14 +552,20 @@ def cached_controller_at_cabinet(seed: int, config: PickAndPlaceConfig, controll
                          f"{type(controller).__name__}")
 
     def build():
-        return controller_at_cabinet(cached_pick_and_place(seed, config), network.trained_controller(controller).model,
-                                     frames, lead)
+        return measure(cached_pick_and_place(seed, config), network.trained_controller(controller).model, **arguments)
 
     # as the demo's artifact: the kitchens, the body, the motion data and the trained models all shape the rollouts
     key = {"seed": seed, "config": dataclasses.asdict(config), "controller": dataclasses.asdict(controller),
-           "frames": frames, "lead": lead}
-    return load_or_build("choice_controller_at_cabinet", key, build,
-                         code=(sys.modules[__package__.rpartition(".")[0]], world, nn, infra))
+           **arguments}
+    return load_or_build(name, key, build, code=(sys.modules[__package__.rpartition(".")[0]], world, nn, infra))
+
+
+def cached_controller_at_cabinet(seed: int, config: PickAndPlaceConfig, controller: network.ControllerConfig,
+                                 frames: int = 60, lead: float = 1.0) -> dict:
+    """:func:`controller_at_cabinet` through the artifact cache (:func:`cached_controller_measure`), for the demo
+    of ``seed`` and ``config`` and the controller trained with ``controller``."""
+    return cached_controller_measure("choice_controller_at_cabinet", controller_at_cabinet, seed, config, controller,
+                                     frames=frames, lead=lead)
 
 
 def _forward2(heading: float) -> np.ndarray:
