@@ -228,6 +228,32 @@ def test_guided_x0_leaves_model_gradients_alone():
         guided_x0(model, x_k, lambda x0: x0.pow(2).sum(), 0.1)
 
 
+def test_guided_x0_at_alpha_zero_is_the_prediction_without_a_backward_pass():
+    """α = 0 (NIFTY's *selection only* control): x̃0 is x̂0 to the bit, as x̂0 − 0·∇G is, with G at x̂0, and the
+    objective is never differentiated (the step is a forward pass only)."""
+
+    class NoBackward(torch.autograd.Function):
+        @staticmethod
+        def forward(ctx, x):
+            return x.clone()
+
+        @staticmethod
+        def backward(ctx, grad):
+            raise AssertionError("the objective was differentiated")
+
+    model = torch.nn.Sequential(torch.nn.Linear(4, 16), torch.nn.Tanh(), torch.nn.Linear(16, 4))
+    x_k = torch.randn(6, 4, generator=torch.Generator().manual_seed(0))
+    x0_tilde, values = guided_x0(model, x_k, lambda x0: NoBackward.apply(x0).pow(2).sum(-1), 0.0)
+    x_grad = x_k.clone().requires_grad_(True)
+    x0_hat = model(x_grad)
+    (grad,) = torch.autograd.grad(x0_hat.pow(2).sum(), x_grad)
+    assert torch.equal(x0_tilde, x0_hat.detach() - 0.0 * grad)
+    assert torch.equal(values, x0_hat.detach().pow(2).sum(-1))
+    assert not x0_tilde.requires_grad and not values.requires_grad
+    with pytest.raises(AssertionError, match="differentiated"):  # the same objective with α > 0 is differentiated
+        guided_x0(model, x_k, lambda x0: NoBackward.apply(x0).pow(2).sum(-1), 0.1)
+
+
 # --------------------------------------------------------------------------- sampling
 
 

@@ -413,6 +413,41 @@ def test_linear_regression_converges_and_repeats_bit_for_bit():
         assert torch.equal(a, b)
 
 
+@pytest.mark.parametrize("optimizer, weight_decay", [("adamw", 0.01), ("adam", 0.0), ("adam", 0.01)])
+def test_the_trainers_one_update_over_all_parameters_gives_the_loops_bits(monkeypatch, optimizer, weight_decay):
+    """The trainer's Adam(W) updates every parameter in one call (``foreach``); torch's loop over them, its
+    CPU default, must give the same weights to the last bit, so the switch changed no trained model."""
+    from hoi_tutorial.infra import training
+
+    sample_batch, _ = _regression_problem()
+
+    def loss_fn(model, batch):
+        return torch.nn.functional.mse_loss(model(batch["x"]), batch["y"])
+
+    def make():
+        torch.manual_seed(0)
+        return torch.nn.Sequential(torch.nn.Linear(3, 16), torch.nn.Tanh(), torch.nn.Linear(16, 16),
+                                   torch.nn.Tanh(), torch.nn.Linear(16, 1))
+
+    config = TrainerConfig(steps=40, device="cpu", progress=False, optimizer=optimizer, weight_decay=weight_decay,
+                           grad_clip=0.5, lr_schedule="cosine", warmup_steps=5)
+    one_call = make()
+    train(one_call, sample_batch, loss_fn, config)
+    made, one_call_optimizer = [], training._make_optimizer
+
+    def loop_optimizer(parameters, config):
+        made.append(one_call_optimizer(parameters, config, foreach=False))
+        return made[-1]
+
+    looped = make()
+    monkeypatch.setattr(training, "_make_optimizer", loop_optimizer)
+    train(looped, sample_batch, loss_fn, config)
+    assert made and made[0].defaults["foreach"] is False
+    assert any(not torch.equal(p, q) for p, q in zip(make().parameters(), one_call.parameters()))  # it trained
+    for p, q in zip(one_call.parameters(), looped.parameters()):
+        assert torch.equal(p, q)
+
+
 def test_trainer_seeds_dropout_and_restores_global_rng():
     sample_batch, _ = _regression_problem()
 

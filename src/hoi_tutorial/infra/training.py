@@ -216,10 +216,12 @@ def move_to_device(batch, device: torch.device):
     return batch
 
 
-def _make_optimizer(parameters, config: TrainerConfig) -> torch.optim.Optimizer:
+def _make_optimizer(parameters, config: TrainerConfig, foreach: bool = True) -> torch.optim.Optimizer:
+    # foreach: one update over all parameters instead of a loop over them (torch's default on CUDA only); the
+    # same arithmetic, so the same bits as the loop (tests/test_infra.py), in a third less time on the CPU.
     if config.optimizer == "adamw":
-        return torch.optim.AdamW(parameters, lr=config.lr, weight_decay=config.weight_decay)
-    return torch.optim.Adam(parameters, lr=config.lr, weight_decay=config.weight_decay)
+        return torch.optim.AdamW(parameters, lr=config.lr, weight_decay=config.weight_decay, foreach=foreach)
+    return torch.optim.Adam(parameters, lr=config.lr, weight_decay=config.weight_decay, foreach=foreach)
 
 
 def train(model: torch.nn.Module, sample_batch: Callable[[int, torch.Generator], Any],

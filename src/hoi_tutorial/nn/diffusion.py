@@ -311,12 +311,18 @@ def guided_x0(x0_fn: Callable[[torch.Tensor], torch.Tensor], x_k: torch.Tensor,
     Returns:
         ``(x0_tilde, G)``: ``(B, ...)`` the guided prediction (detached) and ``(B,)`` the objective
         at the unguided x̂0 (detached).
+
+    With ``alpha == 0`` (NIFTY's *selection only* control) ``x̃_0 = x̂_0`` and the gradient is not taken:
+    the step costs a forward pass instead of a forward and a backward one. The forward is the one a
+    guided step runs (``x_k`` requires grad), so ``x̂_0`` has the same bits as with the gradient.
     """
     x_k = x_k.detach().requires_grad_(True)
     with torch.enable_grad():
         x0_hat = x0_fn(x_k)
         values = objective(x0_hat)
         check_shape(values, (x_k.shape[0],), "objective(x0_hat)")
+        if alpha == 0:  # x̂0 − 0·∇G = x̂0: the backward pass would be multiplied away
+            return x0_hat.detach(), values.detach()
         (grad,) = torch.autograd.grad(values.sum(), x_k, allow_unused=True)
     if grad is None:  # x0_fn ignores its input: the objective cannot be moved through x_k
         grad = torch.zeros_like(x_k)
