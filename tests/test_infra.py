@@ -797,6 +797,55 @@ def test_library_keys_follow_the_library_imports():
     assert derived_code([_producer_a]) == []
 
 
+def _library_code_arguments():
+    """Every ``code=`` the library passes to ``load_or_build``: ``(where, the module, the expression, its items)``."""
+    import ast
+    import importlib
+    import pathlib
+
+    import hoi_tutorial
+
+    root = pathlib.Path(hoi_tutorial.__file__).parent
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        source = path.read_text()
+        if "load_or_build(" not in source:
+            continue
+        parts = path.relative_to(root.parent).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        for node in ast.walk(ast.parse(source)):
+            called = getattr(node, "func", None)
+            if not isinstance(node, ast.Call) or getattr(called, "id", getattr(called, "attr", None)) != "load_or_build":
+                continue
+            for keyword in node.keywords:
+                if keyword.arg != "code":
+                    continue
+                module = importlib.import_module(name)
+                items = eval(compile(ast.Expression(keyword.value), str(path), "eval"), dict(vars(module)))  # noqa: S307
+                found.append((f"{name}:{node.lineno}", name, keyword.value, tuple(items)))
+    return found
+
+
+def test_the_library_lists_by_hand_only_code_its_imports_do_not_show():
+    """A builder's key already holds its module and every library module that module imports (``code_closure``):
+    a ``code=`` passed to ``load_or_build`` must add what imports cannot show (the code that made the data a model
+    is trained on, say), and a tuple written out must not list a module the imports already bring."""
+    import ast
+
+    from hoi_tutorial.infra.cache import derived_code
+    from hoi_tutorial.infra.code_closure import code_closure
+
+    found = _library_code_arguments()
+    assert found, "expected the library's builders to pass some code= (the NIFTY motion model's data, at least)"
+    for where, module, expression, items in found:
+        own = set(code_closure(module))
+        assert set(derived_code(items)) - own, f"{where}: code= adds nothing to what {module} imports; drop it"
+        if isinstance(expression, ast.Tuple):
+            for item, element in zip(items, expression.elts):
+                assert set(derived_code([item])) - own, \
+                    f"{where}: {ast.unparse(element)} in code= is already imported by {module}; drop it"
+
+
 def _build_trained(name):
     # A build that trains a small model for a second or so (its bar is what the test watches).
     from hoi_tutorial.infra import TrainerConfig, train

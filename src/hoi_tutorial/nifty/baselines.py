@@ -20,7 +20,6 @@ size and the GRU's width are ours: neither NIFTY nor this book's references stat
 from __future__ import annotations
 
 import dataclasses
-import sys
 from dataclasses import dataclass
 from typing import Optional
 
@@ -226,7 +225,7 @@ def trained_cond_vae(dataset, config: CondVAEConfig, device="cpu", progress: boo
 
     key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(config)}
     artifact = load_or_build(f"nifty_{config.action}_cond_vae", key, build,
-                             code=motion_model.model_code() + (sys.modules[__name__],))
+                             code=motion_model.model_code())
     model = CondMotionVAE(config)
     model.load_state_dict(artifact["state"])
     return TrainedModel(model.eval(), artifact["losses"], artifact["seconds"],

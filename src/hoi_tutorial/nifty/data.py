@@ -25,12 +25,10 @@ import numpy as np
 import torch
 
 from .._validate import check_choice, check_positive_ints
-from ..infra import TrainedModel, load_or_build, state_dict_to_cpu, training
+from ..infra import TrainedModel, load_or_build, state_dict_to_cpu
 from ..infra.presets import check_scale, scaled_config
-from .. import world
 from ..world import mocap
 from ..world.motion import FPS, Motion, action_id
-from . import anchors
 from . import motion_prior, rollout
 from .anchors import Anchor, collect_anchors
 from .motion_prior import PriorConfig, ReversePrior, prior_config, train_reverse_prior
@@ -186,7 +184,7 @@ def trained_prior(config: SyntheticDataConfig, device: str = "cpu", progress: bo
 
     key = {"clips_per_kind": config.clips_per_kind, "mocap_subjects": config.mocap_subjects,
            "prior": dataclasses.asdict(config.prior), "seed": config.seed, "kinds": PRIOR_MOCAP_KINDS}
-    artifact = load_or_build("nifty_reverse_prior", key, build, code=(motion_prior, training, world))
+    artifact = load_or_build("nifty_reverse_prior", key, build)
     model = ReversePrior(config.prior)
     model.load_state_dict(artifact["state"])
     return TrainedModel(model.eval(), artifact["losses"], artifact["seconds"],
@@ -289,8 +287,7 @@ def synthesize(config: SyntheticDataConfig, device: str = "cpu", progress: bool 
         return {**_paths_payload(trees), "rounds": r + 1}
 
     key = {"config": dataclasses.asdict(config)}
-    payload = load_or_build(f"nifty_{config.action}_rollouts", key, build,
-                            code=(motion_prior, rollout, anchors, world))
+    payload = load_or_build(f"nifty_{config.action}_rollouts", key, build)
     dataset_anchors = round_anchors(int(payload["rounds"]))
     action = action_id(config.action)
     all_paths = []

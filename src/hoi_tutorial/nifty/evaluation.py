@@ -19,18 +19,15 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import sys
 from dataclasses import dataclass
 from typing import Optional, Sequence
 
 import numpy as np
 import torch
 
-from .. import metrics
 from .._validate import check_choice
 from ..infra import load_or_build
 from ..infra.presets import scaled_config
-from ..world import body
 from ..world.features import NIFTY_STATE_LAYOUT
 from ..world.motion import Motion
 from . import baselines, data, guidance, interaction_field, motion_model, scoring
@@ -224,8 +221,7 @@ def evaluate_motion_model(dataset, model_config, config: Optional[EvaluationConf
 
     key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config),
            "evaluation": dataclasses.asdict(config)}
-    artifact = load_or_build(f"nifty_{dataset.config.action}_motion_model_evaluation", key, build,
-                             code=motion_model.model_code() + (sys.modules[__name__], scoring, body, metrics))
+    artifact = load_or_build(f"nifty_{dataset.config.action}_motion_model_evaluation", key, build)
     betas = {"scenes": [s.start.betas for s in scenes], "training": [s.motion.betas for s in training]}
     sets = {}
     for name, part in artifact["sets"].items():
@@ -349,7 +345,6 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
         return {"metrics": scores.as_dict(), **_motions_payload(motions), "objective": out.objective.numpy(),
                 "all_objectives": out.all_objectives.numpy()}
 
-    code = motion_model.model_code() + (sys.modules[__name__], scoring, interaction_field, guidance, body, metrics)
     parts = []
     # Blocks of GUIDED_SCENE_BLOCK scenes, each cached on its own with its own noise: the first scenes give the
     # same samples whether 8 or 32 are asked for, so a later, larger evaluation reuses an earlier one.
@@ -360,7 +355,7 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
                "objective": objective, "evaluation": dataclasses.asdict(config),
                "n_samples": int(n_samples), "alpha": alpha, "scenes": [start, stop]}
         parts.append(load_or_build(f"nifty_{dataset.config.action}_guided_evaluation", key,
-                                   functools.partial(build, start, stop), code=code))
+                                   functools.partial(build, start, stop)))
     artifact = {"metrics": {name: np.concatenate([np.asarray(p["metrics"][name]) for p in parts])
                             for name in parts[0]["metrics"]},
                 "local_rotations": torch.cat([p["local_rotations"] for p in parts]),
@@ -422,8 +417,7 @@ def evaluate_cond_vae(dataset, model_config, vae_config, config: Optional[Evalua
 
     key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config),
            "vae": dataclasses.asdict(vae_config), "evaluation": dataclasses.asdict(config)}
-    code = motion_model.model_code() + (sys.modules[__name__], scoring, baselines, body, metrics)
-    artifact = load_or_build(f"nifty_{dataset.config.action}_cond_vae_evaluation", key, build, code=code)
+    artifact = load_or_build(f"nifty_{dataset.config.action}_cond_vae_evaluation", key, build)
     motions = _payload_motions(artifact, [s.start.betas for s in scenes])
     return ScoredMotions(motions, MotionScores(**artifact["metrics"]))
 
@@ -551,8 +545,7 @@ def guidance_alpha_sweep(dataset, model_config, field_config, config: Optional[E
     key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config), "field": field,
            "objective": objective, "evaluation": dataclasses.asdict(config), "alphas": list(alphas),
            "guide_last_step": guide_last_step}
-    code = motion_model.model_code() + (sys.modules[__name__], scoring, interaction_field, guidance, body, metrics)
-    artifact = load_or_build(f"nifty_{dataset.config.action}_alpha_sweep", key, build, code=code)
+    artifact = load_or_build(f"nifty_{dataset.config.action}_alpha_sweep", key, build)
     return AlphaSweep(alphas=alphas, scores={a: MotionScores(**artifact[repr(a)]["metrics"]) for a in alphas},
                       objective={a: np.asarray(artifact[repr(a)]["objective"]) for a in alphas},
                       guide_last_step=guide_last_step)

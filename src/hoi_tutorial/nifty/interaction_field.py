@@ -33,9 +33,7 @@ the toy learning rate are ours (NIFTY does not state them).
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import math
-import sys
 from dataclasses import dataclass
 from typing import Optional
 
@@ -535,11 +533,6 @@ def train_interaction_field(pairs: FieldTrainingPairs, config: InteractionFieldC
     return field.eval(), result
 
 
-# The code a trained field depends on besides its own: the motion model's (which includes the data
-# pipeline and the toy world).
-_FIELD_CODE = ("..nn.pointnet",)
-
-
 @single_threaded
 def field_anchor_subset(dataset, config: InteractionFieldConfig) -> list[int]:
     """Indices into ``dataset.anchors`` of the training anchors whose sequences train the field.
@@ -592,9 +585,8 @@ def trained_interaction_field(dataset, model_config, config: InteractionFieldCon
 
     key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config),
            "field": training_key(config)}
-    code = motion_model.model_code() + (sys.modules[__name__],) + tuple(
-        importlib.import_module(name, __package__) for name in _FIELD_CODE)
-    artifact = load_or_build(f"nifty_{config.action}_interaction_field", key, build, code=code)
+    # the motion model's data pipeline, which its imports do not show (motion_model.model_code)
+    artifact = load_or_build(f"nifty_{config.action}_interaction_field", key, build, code=motion_model.model_code())
     field = InteractionField(config)
     field.load_state_dict(artifact["state"])
     return TrainedModel(field.eval(), artifact["losses"], artifact["seconds"],

@@ -16,7 +16,6 @@ network serves classifier-free guidance and unconditional sampling.
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass
 from typing import Callable
 
@@ -28,9 +27,7 @@ from ..infra.presets import scaled_config
 from ..infra.seeding import rng as make_rng
 from ..infra.device import single_threaded
 from ..infra.cache import load_or_build, state_dict_to_cpu
-from ..infra import training
 from ..infra.training import TrainedModel, TrainResult, trainer_config
-from ..nn import denoisers, diffusion
 from ..nn.denoisers import MLPDenoiser
 from ..nn.diffusion import NoiseSchedule, cosine_schedule, linear_schedule, train_denoiser
 
@@ -387,8 +384,7 @@ def trained_toy2d_denoiser(config: Toy2DConfig, device="cpu", progress: bool = F
         return {"state": state_dict_to_cpu(model), "losses": torch.tensor(result.losses),
                 "seconds": float(result.seconds)}
 
-    artifact = load_or_build("toy2d_denoiser", config, build,
-                             code=(sys.modules[__name__], denoisers, diffusion, training))
+    artifact = load_or_build("toy2d_denoiser", config, build)
     model = build_toy2d_denoiser(config)
     model.load_state_dict(artifact["state"])
     return TrainedModel(model.eval(), artifact["losses"], artifact["seconds"])

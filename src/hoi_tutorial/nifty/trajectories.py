@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 from dataclasses import dataclass
 from typing import Callable, Optional
 
@@ -32,12 +31,9 @@ from ..infra.presets import scaled_config
 from ..infra.seeding import rng as make_rng
 from ..infra.device import single_threaded
 from ..infra.cache import load_or_build, state_dict_to_cpu
-from ..infra import training
 from ..infra.training import TrainedModel, TrainResult, trainer_config
-from ..nn import denoisers, diffusion
 from ..nn.denoisers import MLPDenoiser
 from ..nn.diffusion import NoiseSchedule, SamplingRecord, cosine_schedule, sample, sample_with_record, train_denoiser
-from ..world.mocap import gait
 from ..world.features import canonical_transform
 from ..world.mocap.gait import walk_path
 from ..world.motion import FPS
@@ -324,8 +320,7 @@ def train_trajectory_denoiser(config: TrajectoryModelConfig, trajectories: torch
 
 def walk_trajectories(config: WalkDataConfig) -> torch.Tensor:
     """:func:`make_walk_trajectories` through the artifact cache (made once, then loaded)."""
-    return load_or_build("walk_trajectories", config, lambda: make_walk_trajectories(config),
-                         code=(sys.modules[__name__], gait))
+    return load_or_build("walk_trajectories", config, lambda: make_walk_trajectories(config))
 
 
 def trained_trajectory_denoiser(walk_config: WalkDataConfig, config: TrajectoryModelConfig, device="cpu",
@@ -343,8 +338,7 @@ def trained_trajectory_denoiser(walk_config: WalkDataConfig, config: TrajectoryM
         return {"state": state_dict_to_cpu(model), "codec": codec.state(), "losses": torch.tensor(result.losses),
                 "seconds": float(result.seconds)}
 
-    artifact = load_or_build("walk_trajectory_denoiser", {"data": walk_config, "model": config}, build,
-                             code=(sys.modules[__name__], gait, denoisers, diffusion, training))
+    artifact = load_or_build("walk_trajectory_denoiser", {"data": walk_config, "model": config}, build)
     model = build_trajectory_denoiser(config)
     model.load_state_dict(artifact["state"])
     return TrainedModel(model.eval(), artifact["losses"], artifact["seconds"],

@@ -27,21 +27,18 @@ sampled sizes. Lying goals are not GoalNet's (§4.3 labels sitting goals): sofas
 from __future__ import annotations
 
 import dataclasses
-import sys
 from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
 import torch
 
-from .. import world
 from .._validate import check_choice, check_positive_ints
 from ..infra import (TrainedModel, TrainResult, load_or_build, scaled_config, single_threaded, state_dict_to_cpu,
                      train, trainer_config)
 from ..metrics import goal_apd, goal_reconstruction_error
 from ..nn.cvae import gaussian_kl
 from ..world.objects import SITTABLE, ToyObject, make_object
-from . import core
 from .core import GOAL_SIZE, VOXEL_SIZE, GoalNetCVAE
 
 __all__ = [
@@ -186,8 +183,7 @@ def goal_data(config: GoalDataConfig, split: str = "train") -> GoalData:
                 "object_index": torch.as_tensor(index, dtype=torch.int64), "categories": categories,
                 "object_voxels": torch.as_tensor(np.stack(object_voxels))}
 
-    artifact = load_or_build(f"samp_goal_data_{split}", dataclasses.asdict(config), build,
-                             code=(sys.modules[__name__], world), verbose=False)
+    artifact = load_or_build(f"samp_goal_data_{split}", dataclasses.asdict(config), build, verbose=False)
     return GoalData(**artifact)
 
 
@@ -307,7 +303,7 @@ def trained_goalnet(data_config: GoalDataConfig, config: GoalNetConfig, device="
                 "kl": float(np.mean(result.extra["kl"][-100:]))}
 
     key = {"data": dataclasses.asdict(data_config), "model": dataclasses.asdict(config)}
-    artifact = load_or_build("samp_goalnet", key, build, code=(core, world, sys.modules[__name__]))
+    artifact = load_or_build("samp_goalnet", key, build)
     model = build_goalnet(config)
     model.load_state_dict(artifact["state"])
     details = {name: artifact[name] for name in ("n_goals", "n_objects", "reconstruction", "kl")}

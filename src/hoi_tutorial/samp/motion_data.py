@@ -49,7 +49,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 from dataclasses import dataclass
 from typing import Optional
 
@@ -58,7 +57,6 @@ import torch
 
 from .._validate import check_choice, check_shape
 from ..infra import load_or_build, scaled_config
-from .. import world
 from ..world import mocap
 from ..world.mocap.sitting import lowest_clearance
 from ..world.features import SAMP_ACTIONS, SAMP_STATE_SIZE, root_frame, samp_action_ids, samp_pose_state
@@ -544,8 +542,7 @@ def motion_data(config: MotionDataConfig, split: str = "train") -> MotionData:
                 "clip_seeds": seeds, "clip_augmented": torch.as_tensor(augmented, dtype=torch.int64)}
 
     # the clips come from the toy world (mocap, objects, features) and the augmentation: their source is part of the key
-    artifact = load_or_build(f"samp_motion_data_{split}", dataclasses.asdict(config), build,
-                             code=(sys.modules[__name__], augmentation, world), verbose=False)
+    artifact = load_or_build(f"samp_motion_data_{split}", dataclasses.asdict(config), build, verbose=False)
     data = MotionData(**artifact)
     if data.states.shape[1] != SAMP_STATE_SIZE:
         raise ValueError(f"cached motion data: expected states of {SAMP_STATE_SIZE}, got {data.states.shape[1]}")

@@ -37,19 +37,17 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 from dataclasses import dataclass
 from typing import Optional
 
 import torch
 
-from .. import world
 from .._validate import check_choice, check_positive_ints
 from ..infra import (TrainedModel, TrainerConfig, TrainResult, load_or_build, scaled_config, single_threaded,
                      state_dict_to_cpu, train)
 from ..nn.cvae import gaussian_kl
 from ..world.features import SAMP_STATE_LAYOUT, SAMP_STATE_SIZE
-from . import augmentation, core, goal_frame, motion_data as motion_data_module
+from . import goal_frame
 from .core import MLPMotionModel, MotionModel, MotionNet
 from .motion_data import (ROOT_SIZE, MotionData, MotionDataConfig, apply_root_displacement, motion_data,
                           root_displacement)
@@ -319,8 +317,7 @@ def trained_motion_model(data_config: MotionDataConfig, config: MotionNetConfig,
                 "kl": float(torch.tensor(result.extra["kl"][-50:]).mean())}
 
     key = {"data": dataclasses.asdict(data_config), "model": dataclasses.asdict(config)}
-    artifact = load_or_build(f"samp_motion_{config.model}", key, build,
-                             code=(augmentation, core, goal_frame, motion_data_module, world, sys.modules[__name__]))
+    artifact = load_or_build(f"samp_motion_{config.model}", key, build)
     model = build_motion_model(config)
     model.load_state_dict(artifact["state"])
     details = {name: artifact[name] for name in ("n_frames", "n_windows", "steps", "reconstruction", "kl")}

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import sys
 from dataclasses import dataclass
 from typing import NamedTuple, Optional
 
@@ -18,11 +17,10 @@ from torch import nn
 
 from ..._validate import check_positive_ints, check_shape
 from ...infra import TrainedModel, load_or_build, scaled_config, single_threaded, state_dict_to_cpu, train, trainer_config
-from ...nn import moe
 from ...nn.moe import MoEMLP
 from ...world import mocap
 from ...world.motion import FPS
-from . import features, phase
+from . import phase
 from .features import (CLIP_KINDS, KEY_JOINTS, PAST, SAMPLE_STEP, TRANSFORM, WINDOW, clip_features, io_layouts,
                        next_key_trajectories, next_root_trajectory)
 from .phase import PhaseAutoencoder
@@ -307,7 +305,7 @@ def trained_controller(config: ControllerConfig, device="cpu", progress: bool = 
                 "seconds": float(result.seconds), "n_frames": len(data.x), "final_loss": result.final_loss}
 
     key = {"model": dataclasses.asdict(config), "fps": FPS}
-    artifact = load_or_build("choice_controller", key, build, code=(mocap, moe, phase, features, sys.modules[__name__]))
+    artifact = load_or_build("choice_controller", key, build)
     model = build_controller(config, pae)
     model.load_state_dict(artifact["state"])
     return TrainedModel(model.eval(), artifact["losses"], artifact["seconds"],

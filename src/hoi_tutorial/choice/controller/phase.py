@@ -62,7 +62,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 from dataclasses import dataclass
 from typing import NamedTuple, Union
 
@@ -438,7 +437,7 @@ def trained_phase_autoencoder(scale: str = "toy", seed: int = 0, *, device="cpu"
                 "seconds": float(result.seconds), "n_windows": len(windows), "final_loss": result.final_loss}
 
     key = {"model": dataclasses.asdict(config), "fps": FPS}
-    artifact = load_or_build("choice_phase_autoencoder", key, build, code=(mocap, sys.modules[__name__]))
+    artifact = load_or_build("choice_phase_autoencoder", key, build)
     model = build_phase_autoencoder(config)
     model.load_state_dict(artifact["state"])
     details = {"config": config, "n_windows": artifact["n_windows"], "final_loss": artifact["final_loss"]}

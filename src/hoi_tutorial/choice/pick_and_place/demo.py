@@ -86,7 +86,6 @@ import time
 import numpy as np
 import torch
 
-from ... import infra, nn, world
 from ...infra import check_scale, load_or_build, scaled_config
 from ...world.kinematics import forward_kinematics
 from ...world.mocap.body_plan import SIDES, PlanBody, check_betas, plan_to_motion
@@ -262,7 +261,7 @@ def schedule_survey(n_kitchens: int = 20, config: PickAndPlaceConfig = PickAndPl
         return rows
 
     key = {"n_kitchens": n_kitchens, "config": dataclasses.asdict(config)}
-    return load_or_build("choice_schedule_survey", key, build, code=(env, goal_library, scheduler, sys.modules[__name__]))
+    return load_or_build("choice_schedule_survey", key, build)
 
 
 def pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceConfig()) -> PickAndPlace:
@@ -460,7 +459,7 @@ def cached_pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceCo
 
     # the kitchens, the body, the motion data, the trained models and their training: all of it shapes the run
     stored = load_or_build("choice_pick_and_place", {"seed": seed, "config": dataclasses.asdict(config)}, build,
-                           code=(sys.modules[__package__.rpartition(".")[0]], world, nn, infra))
+                           code=(sys.modules[__package__.rpartition(".")[0]],))
     first = cabinet_schedule(seed, config)
     chosen = first.candidates[stored["chosen"]]
     place_at = np.asarray(stored["place_at"])
@@ -557,7 +556,7 @@ def cached_controller_measure(name: str, measure, seed: int, config: PickAndPlac
     # as the demo's artifact: the kitchens, the body, the motion data and the trained models all shape the rollouts
     key = {"seed": seed, "config": dataclasses.asdict(config), "controller": dataclasses.asdict(controller),
            **arguments}
-    return load_or_build(name, key, build, code=(sys.modules[__package__.rpartition(".")[0]], world, nn, infra))
+    return load_or_build(name, key, build, code=(sys.modules[__package__.rpartition(".")[0]],))
 
 
 def cached_controller_at_cabinet(seed: int, config: PickAndPlaceConfig, controller: network.ControllerConfig,

@@ -42,7 +42,6 @@ Scaling (paper → toy): 2.5 cm cells → 5 cm (16³); CHOICE's capture (150 seq
 from __future__ import annotations
 
 import dataclasses
-import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -392,8 +391,7 @@ def training_grids(config: EnvironmentConfig) -> torch.Tensor:
 
     key = {"field": dataclasses.asdict(config.field), "truncation": config.truncation,
            "n_kitchens": config.n_kitchens, "seed": config.seed}
-    return load_or_build("choice_environment_grids", key, build, code=(fields, make_kitchen, sys.modules[__name__]),
-                         verbose=False)
+    return load_or_build("choice_environment_grids", key, build, verbose=False)
 
 
 # ----------------------------------------------------------------------------- the autoencoder
@@ -493,8 +491,7 @@ def trained_environment_autoencoder(config: EnvironmentConfig, device="cpu", pro
                 "seconds": float(result.seconds), "n_grids": len(grids),
                 "reconstruction": float(reconstruction_errors(model, grids).mean()), "mean_grid": baseline}
 
-    artifact = load_or_build("choice_environment_autoencoder", dataclasses.asdict(config), build,
-                             code=(fields, sys.modules[__name__]))
+    artifact = load_or_build("choice_environment_autoencoder", dataclasses.asdict(config), build)
     model = build_environment_autoencoder(config)
     model.load_state_dict(artifact["state"])
     details = {k: artifact[k] for k in ("n_grids", "reconstruction", "mean_grid")}

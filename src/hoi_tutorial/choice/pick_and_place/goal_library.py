@@ -15,7 +15,6 @@ listed in ``environment``'s docstring.
 from __future__ import annotations
 
 import dataclasses
-import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,7 +29,6 @@ from ...world.objects import GRASPABLE, make_object, object_from_description
 from ..planner import fields
 from ..planner.fields import FieldGrid
 from ..planner.interactions import condition_vector
-from . import environment
 from .environment import (GOAL_KINDS, HANDLED_CATEGORY, HANDS, EnvironmentAutoencoder, EnvironmentConfig, HandGoal,
                           KeyPose, encode, environment_field, floor_sdf, goal_frame, object_yaw)
 
@@ -110,8 +108,7 @@ def goal_keyframes(config: EnvironmentConfig, library: LibraryConfig) -> list[di
 
     key = {"field": dataclasses.asdict(config.field), "truncation": config.truncation,
            "library": dataclasses.asdict(library)}
-    return load_or_build("choice_goal_keyframes", key, build,
-                         code=(fields, environment, reach_grasp, open_door, open_drawer, sys.modules[__name__]), verbose=False)
+    return load_or_build("choice_goal_keyframes", key, build, verbose=False)
 
 
 def _label(kind: str, condition) -> tuple:

@@ -44,7 +44,6 @@ Choices the paper does not state, ours (the path's are in ``navigation``):
 
 from __future__ import annotations
 
-import sys
 import zlib
 from dataclasses import dataclass
 from typing import Callable, Optional
@@ -263,8 +262,7 @@ def motion_database(config: NavigationConfig = NavigationConfig()) -> MotionData
     artifact cache."""
     key = {"n_clips": config.n_clips, "keyframe_step": config.keyframe_step,
            "segment_length": config.segment_length, "seed": config.seed, "fps": FPS}
-    arrays = load_or_build("choice_navigation_database", key, lambda: build_database(config),
-                           code=(mocap, sys.modules[__name__]))
+    arrays = load_or_build("choice_navigation_database", key, lambda: build_database(config))
     return MotionDatabase(arrays, config.weights)
 
 

@@ -44,7 +44,6 @@ Ours, where CHOICE does not say or where the toy differs:
 from __future__ import annotations
 
 import dataclasses
-import sys
 import time
 from typing import NamedTuple, Optional
 
@@ -373,4 +372,4 @@ def table4_runs(controller_config: network.ControllerConfig, *, clips: int = 12,
     key = {"controller": dataclasses.asdict(controller_config), "clips": clips, "after": after, "seed": int(seed),
            "environment": dataclasses.asdict(environment), "planner data": dataclasses.asdict(planner_data),
            "planner": dataclasses.asdict(planner_config)}
-    return load_or_build("choice_table4", key, build, code=(sys.modules[__name__],))
+    return load_or_build("choice_table4", key, build)

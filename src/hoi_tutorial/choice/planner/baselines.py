@@ -20,7 +20,6 @@ from __future__ import annotations
 from typing import Callable, Optional
 
 import dataclasses
-import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -275,7 +274,7 @@ def trained_diffusion_policy(data_config, config: DiffusionPolicyConfig, device=
                 "obs_dim": int(model.denoiser.cond_dim)}
 
     key = {"data": dataclasses.asdict(data_config), "model": dataclasses.asdict(config)}
-    artifact = load_or_build("choice_diffusion_policy", key, build, code=(interactions, fields, sys.modules[__name__]))
+    artifact = load_or_build("choice_diffusion_policy", key, build)
     model = DiffusionPolicy(config, artifact["obs_dim"])
     model.load_state_dict(artifact["state"])
     return TrainedModel(model.eval(), artifact["losses"], artifact["seconds"],

@@ -26,7 +26,6 @@ and the action label set to 1 (ours). The scaling (paper → toy): 5546 interact
 from __future__ import annotations
 
 import dataclasses
-import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -288,8 +287,7 @@ def interaction_set(config: PlannerDataConfig, split: str = "train") -> Interact
 
     key = dataclasses.asdict(config)
     key["split"] = split
-    rows = load_or_build("choice_interactions", key, build,
-                         code=(sys.modules[__name__], fields, reach_grasp), verbose=False)
+    rows = load_or_build("choice_interactions", key, build, verbose=False)
     interactions = []
     for row in rows:
         g = row["grid"]

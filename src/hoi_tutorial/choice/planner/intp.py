@@ -32,7 +32,6 @@ of ``batch_size`` interactions × ``points`` cells; 100 latent steps and three i
 from __future__ import annotations
 
 import dataclasses
-import sys
 import time
 from dataclasses import dataclass, field
 from typing import Optional
@@ -43,7 +42,7 @@ from torch import nn
 
 from ..._validate import check_positive_ints, check_shape
 from ...infra import TrainedModel, load_or_build, scaled_config, single_threaded, state_dict_to_cpu, train, trainer_config
-from . import decoder, fields, interactions
+from . import fields, interactions
 from .decoder import CHANNEL_SETS, FieldDecoder, channel_values
 from .interactions import InteractionSet, PlannerDataConfig
 
@@ -253,7 +252,7 @@ def trained_planner(data_config: PlannerDataConfig, config: PlannerConfig, devic
                 "code_norm": float(model.codes.weight.detach().norm(dim=-1).mean()), **details}
 
     key = {"data": dataclasses.asdict(data_config), "model": dataclasses.asdict(config)}
-    artifact = load_or_build("choice_planner", key, build, code=(decoder, interactions, fields, sys.modules[__name__]))
+    artifact = load_or_build("choice_planner", key, build)
     f = data_config.field
     model = build_auto_decoder(config, artifact["n_interactions"], (f.epsilon, f.epsilon, f.time_epsilon), 0.5 * f.extent)
     model.load_state_dict(artifact["state"])

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import sys
 import time
 from dataclasses import dataclass
 from typing import Optional
@@ -341,7 +340,7 @@ def condition_runs(data_config, planner_config, policy_config, reshape: bool, *,
 
     key = {"data": dataclasses.asdict(data_config), "planner": dataclasses.asdict(planner_config),
            "policy": dataclasses.asdict(policy_config), "reshape": reshape, "seed": int(seed)}
-    return load_or_build("choice_table3", key, build, code=(sys.modules[__name__], baselines, intp, interactions, fields))
+    return load_or_build("choice_table3", key, build)
 
 
 _ROW = ("unsmoothness", "safety", "min_clearance", "end_error", "success", "frames", "item_clearance")
