@@ -156,6 +156,9 @@ def _check_seed(seed) -> int:
 # ----------------------------------------------------------------------------- the scene
 
 
+# What the demo's artifacts are keyed by besides their builders' imports: the whole CHOICE package (the kitchens,
+# the body, the motion data, the trained models and their training all shape the run).
+_DEMO_CODE = (sys.modules[__package__.rpartition(".")[0]],)
 _BOTTLE_DRAWS = 32
 _FRONT = 0.95  # how far to the front of its board the bottle stands (0: at the back, 1: at the front)
 
@@ -459,7 +462,7 @@ def cached_pick_and_place(seed: int, config: PickAndPlaceConfig = PickAndPlaceCo
 
     # the kitchens, the body, the motion data, the trained models and their training: all of it shapes the run
     stored = load_or_build("choice_pick_and_place", {"seed": seed, "config": dataclasses.asdict(config)}, build,
-                           code=(sys.modules[__package__.rpartition(".")[0]],))
+                           code=_DEMO_CODE)
     first = cabinet_schedule(seed, config)
     chosen = first.candidates[stored["chosen"]]
     place_at = np.asarray(stored["place_at"])
@@ -556,7 +559,7 @@ def cached_controller_measure(name: str, measure, seed: int, config: PickAndPlac
     # as the demo's artifact: the kitchens, the body, the motion data and the trained models all shape the rollouts
     key = {"seed": seed, "config": dataclasses.asdict(config), "controller": dataclasses.asdict(controller),
            **arguments}
-    return load_or_build(name, key, build, code=(sys.modules[__package__.rpartition(".")[0]],))
+    return load_or_build(name, key, build, code=_DEMO_CODE)
 
 
 def cached_controller_at_cabinet(seed: int, config: PickAndPlaceConfig, controller: network.ControllerConfig,
