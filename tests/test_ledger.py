@@ -201,7 +201,9 @@ def _execute_page(tmp_path):
     from nbclient import NotebookClient
 
     nb = nbformat.read(PAGE, as_version=4)
-    NotebookClient(nb, timeout=120, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}).execute()
+    # generous limits: CI runs the tests at the lowest priority beside the book build, where a kernel may wait minutes
+    NotebookClient(nb, timeout=1800, startup_timeout=1800, kernel_name="python3",
+                   resources={"metadata": {"path": str(tmp_path)}}).execute()
     return nb
 
 
