@@ -14,7 +14,8 @@ Modules, in the order of the paper:
   of Chi et al. on ``nn.diffusion`` (§8.2.1).
 - ``table3``: Table 3's protocol — unseen layouts, reshaped containers, unsmoothness, safety distance,
   success (§8.2.2).
+- ``latent_map``: Fig. 11, the codes fitted in unseen layouts among the training codes (t-SNE).
 """
-from . import baselines, decoder, fields, interactions, intp, table3
+from . import baselines, decoder, fields, interactions, intp, latent_map, table3
 
-__all__ = ["fields", "interactions", "decoder", "intp", "baselines", "table3"]
+__all__ = ["fields", "interactions", "decoder", "intp", "baselines", "table3", "latent_map"]
