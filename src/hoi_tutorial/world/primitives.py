@@ -50,6 +50,8 @@ __all__ = [
     "sample_surface",
     "primitive_bounds",
     "primitive_mesh",
+    "Footprint",
+    "footprint",
     "footprint_distance",
 ]
 
@@ -425,11 +427,33 @@ def primitive_mesh(prim: Primitive, *, sections: int = 64, subdivisions: int = 4
 # ----------------------------------------------------------------------------- 2D footprints
 
 
+def _row_norms(d: np.ndarray) -> np.ndarray:
+    """``np.linalg.norm(d, axis=1)`` for real ``d`` (N, 2), computed as it computes it (the same bits) without its
+    checks: these distances are taken many thousand times on a few points each."""
+    return np.sqrt(np.add.reduce(d * d, axis=1))
+
+
+@dataclass(frozen=True)
+class _Segment:
+    """A 2D segment from ``a`` along ``ab``, with ``denom = ab·ab``, prepared once for many distance queries."""
+
+    a: np.ndarray
+    ab: np.ndarray
+    denom: float
+
+    @classmethod
+    def between(cls, a: np.ndarray, b: np.ndarray) -> "_Segment":
+        ab = b - a
+        return cls(a, ab, float(ab @ ab))
+
+    def distance(self, xy: np.ndarray) -> np.ndarray:
+        """(N,) metres from ``xy`` (N, 2) to the segment."""
+        t = np.zeros(len(xy)) if self.denom == 0 else np.clip((xy - self.a) @ self.ab / self.denom, 0.0, 1.0)
+        return _row_norms(xy - (self.a + t[:, None] * self.ab))
+
+
 def _segment_distance_2d(xy: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    ab = b - a
-    denom = float(ab @ ab)
-    t = np.zeros(len(xy)) if denom == 0 else np.clip((xy - a) @ ab / denom, 0.0, 1.0)
-    return np.linalg.norm(xy - (a + t[:, None] * ab), axis=1)
+    return _Segment.between(a, b).distance(xy)
 
 
 def _convex_hull_2d(points: np.ndarray) -> np.ndarray:
@@ -453,6 +477,70 @@ def _convex_hull_2d(points: np.ndarray) -> np.ndarray:
     return np.array(lower[:-1] + upper[:-1])
 
 
+@dataclass(frozen=True)
+class Footprint:
+    """The vertical projection of a primitive inside a height band (:func:`footprint`), prepared once so that the
+    distance to it can be taken for many points at a time (a scene's grid, a planner's queries).
+
+    ``kind`` is ``"disc"`` (``centre`` (2,), ``radius``: spheres and upright cylinders), ``"stadium"`` (one segment
+    and ``radius``: capsules and tilted cylinders), ``"polygon"`` (the convex hull ``polygon`` (K, 2),
+    counter-clockwise, and its edges: boxes) or ``"empty"`` (the primitive lies outside the band).
+    """
+
+    kind: str
+    centre: np.ndarray = None
+    radius: float = 0.0
+    segments: tuple = ()
+    polygon: np.ndarray = None
+
+    def distance(self, xy) -> np.ndarray:
+        """Horizontal distance (N,) metres from ``xy`` (N, 2) to the footprint (0 inside, ``inf`` if empty)."""
+        xy = np.asarray(xy, dtype=np.float64)
+        if self.kind == "empty":
+            return np.full(len(xy), np.inf)
+        if self.kind == "disc":
+            return np.clip(_row_norms(xy - self.centre) - self.radius, 0.0, None)
+        if self.kind == "stadium":
+            return np.clip(self.segments[0].distance(xy) - self.radius, 0.0, None)
+        dist = np.full(len(xy), np.inf)
+        for segment in self.segments:
+            dist = np.minimum(dist, segment.distance(xy))
+        polygon = self.polygon
+        if len(polygon) >= 3:
+            inside = np.ones(len(xy), dtype=bool)
+            # hull vertices are counter-clockwise: inside is left of every edge
+            for k in range(len(polygon)):
+                a, b = polygon[k], polygon[(k + 1) % len(polygon)]
+                cross = (b[0] - a[0]) * (xy[:, 1] - a[1]) - (b[1] - a[1]) * (xy[:, 0] - a[0])
+                inside &= cross >= 0
+            dist[inside] = 0.0
+        return dist
+
+
+def footprint(prim: Primitive, z_band=(-np.inf, np.inf)) -> Footprint:
+    """The vertical projection of ``prim`` (in the frame of the floor, z up) for heights in ``z_band`` (low, high)
+    metres: a primitive entirely outside the band has none. Exact for every kind: a box projects to a convex polygon,
+    a capsule to a stadium, cylinders and spheres to discs (a tilted cylinder projects to the hull of two ellipses; it
+    is bounded here by the stadium of its axis, a slight over-estimate)."""
+    lo, hi = primitive_bounds(prim)[:, 2]
+    if hi < z_band[0] or lo > z_band[1]:
+        return Footprint("empty")
+    if prim.kind == "sphere" or (prim.kind == "cylinder" and abs(prim.rotation[2, 2]) > 1 - 1e-12):
+        return Footprint("disc", centre=prim.centre[:2], radius=prim.size[0])
+    if prim.kind in ("capsule", "cylinder"):
+        r, h = prim.size
+        a = prim.centre - prim.rotation[:, 2] * h
+        b = prim.centre + prim.rotation[:, 2] * h
+        return Footprint("stadium", radius=r, segments=(_Segment.between(a[:2], b[:2]),))
+    # box: convex hull of the 8 projected corners
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64)
+    corners = (signs * prim.size) @ prim.rotation.T + prim.centre
+    polygon = _convex_hull_2d(corners[:, :2])
+    return Footprint("polygon", polygon=polygon,
+                     segments=tuple(_Segment.between(polygon[k], polygon[(k + 1) % len(polygon)])
+                                    for k in range(len(polygon))))
+
+
 def footprint_distance(prim: Primitive, xy, z_band=(-np.inf, np.inf)) -> np.ndarray:
     """Horizontal distance from ``xy`` to the vertical projection of ``prim`` (0 inside it).
 
@@ -462,35 +550,8 @@ def footprint_distance(prim: Primitive, xy, z_band=(-np.inf, np.inf)) -> np.ndar
         z_band: (low, high) metres; a primitive entirely outside the band has no footprint
             and gives ``inf``.
     Returns:
-        (N,) metres. Exact for every kind: a box projects to a convex polygon, a capsule to a
-        stadium, cylinders and spheres to discs (a tilted cylinder projects to the hull of two
-        ellipses; it is bounded here by the stadium of its axis, a slight over-estimate).
+        (N,) metres (:func:`footprint`; for many queries on one primitive, prepare it once with that).
     """
     xy = np.asarray(xy, dtype=np.float64)
     check_shape(xy, (None, 2), "xy")
-    lo, hi = primitive_bounds(prim)[:, 2]
-    if hi < z_band[0] or lo > z_band[1]:
-        return np.full(len(xy), np.inf)
-    if prim.kind == "sphere" or (prim.kind == "cylinder" and abs(prim.rotation[2, 2]) > 1 - 1e-12):
-        return np.clip(np.linalg.norm(xy - prim.centre[:2], axis=1) - prim.size[0], 0.0, None)
-    if prim.kind in ("capsule", "cylinder"):
-        r, h = prim.size
-        a = prim.centre - prim.rotation[:, 2] * h
-        b = prim.centre + prim.rotation[:, 2] * h
-        return np.clip(_segment_distance_2d(xy, a[:2], b[:2]) - r, 0.0, None)
-    # box: convex hull of the 8 projected corners
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64)
-    corners = (signs * prim.size) @ prim.rotation.T + prim.centre
-    polygon = _convex_hull_2d(corners[:, :2])
-    dist = np.full(len(xy), np.inf)
-    for k in range(len(polygon)):
-        dist = np.minimum(dist, _segment_distance_2d(xy, polygon[k], polygon[(k + 1) % len(polygon)]))
-    if len(polygon) >= 3:
-        inside = np.ones(len(xy), dtype=bool)
-        # hull vertices are counter-clockwise: inside is left of every edge
-        for k in range(len(polygon)):
-            a, b = polygon[k], polygon[(k + 1) % len(polygon)]
-            cross = (b[0] - a[0]) * (xy[:, 1] - a[1]) - (b[1] - a[1]) * (xy[:, 0] - a[0])
-            inside &= cross >= 0
-        dist[inside] = 0.0
-    return dist
+    return footprint(prim, z_band).distance(xy)

@@ -24,7 +24,7 @@ from .objects import (
     as_rng,
     make_object,
 )
-from .primitives import box, footprint_distance, union_sdf
+from .primitives import box, union_sdf
 
 __all__ = [
     "FOOTPRINT_BAND",
@@ -58,8 +58,8 @@ def _objects_footprint_distance(objects, xy) -> np.ndarray:
     """Horizontal distance (N,) metres from ``xy`` (N, 2) to the union of the objects' footprints."""
     out = np.full(len(xy), np.inf)
     for obj in objects:
-        for prim in obj.world_primitives():
-            out = np.minimum(out, footprint_distance(prim, xy, FOOTPRINT_BAND))
+        for part in obj.footprints(FOOTPRINT_BAND):
+            out = np.minimum(out, part.distance(xy))
     return out
 
 

@@ -12,7 +12,9 @@ import torch
 
 from ..._validate import check_choice, check_shape
 from ..primitives import (
+    Footprint,
     Primitive,
+    footprint,
     PrimitiveSet,
     primitive_bounds,
     primitive_mesh,
@@ -68,6 +70,7 @@ class ToyObject:
         self._canonical = PrimitiveSet(self.primitives)
         self._volume = None
         self._mesh = None
+        self._footprints = {}
 
     # ------------------------------------------------------------------ frames
 
@@ -105,6 +108,7 @@ class ToyObject:
         out.pose = np.asarray(pose, dtype=np.float64).copy()
         check_shape(out.pose, (4, 4), "pose")
         out._mesh = None
+        out._footprints = {}
         return out
 
     def with_params(self, **overrides) -> "ToyObject":
@@ -135,6 +139,16 @@ class ToyObject:
     def world_primitives(self) -> list[Primitive]:
         """The parts moved into the world frame by ``pose``."""
         return [q.transformed(self.pose) for q in self.primitives]
+
+    def footprints(self, z_band=(-np.inf, np.inf)) -> list[Footprint]:
+        """The world parts' vertical projections for heights in ``z_band`` (low, high) metres
+        (``primitives.footprint``), prepared once for this pose: a scene asks for distances to them
+        thousands of times."""
+        key = (float(z_band[0]), float(z_band[1]), self.pose.tobytes())
+        prepared = self._footprints.get(key)
+        if prepared is None:
+            prepared = self._footprints[key] = [footprint(q, z_band) for q in self.world_primitives()]
+        return prepared
 
     def primitive_meshes(self) -> list:
         """One closed ``trimesh.Trimesh`` per primitive, world frame."""
