@@ -57,3 +57,8 @@ def test_an_objects_footprints_are_prepared_once_for_its_pose():
     obj.pose[:2, 3] += 0.5  # moved in place: prepared again for the new pose
     np.testing.assert_array_equal(distances(obj), direct(obj))
     assert not np.array_equal(distances(obj), before)
+
+
+def test_the_row_norms_are_numpys_bit_for_bit():
+    d = np.random.default_rng(2).normal(scale=[1e-3, 1e3], size=(5000, 2))
+    assert primitives._row_norms(d).tobytes() == np.linalg.norm(d, axis=1).tobytes()

@@ -452,10 +452,6 @@ class _Segment:
         return _row_norms(xy - (self.a + t[:, None] * self.ab))
 
 
-def _segment_distance_2d(xy: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return _Segment.between(a, b).distance(xy)
-
-
 def _convex_hull_2d(points: np.ndarray) -> np.ndarray:
     """Counter-clockwise hull vertices (K, 2) of a few 2D points (Andrew's monotone chain)."""
     pts = sorted(set(map(tuple, np.round(points, 12))))

@@ -14,8 +14,8 @@ from ..._validate import check_choice, check_shape
 from ..primitives import (
     Footprint,
     Primitive,
-    footprint,
     PrimitiveSet,
+    footprint,
     primitive_bounds,
     primitive_mesh,
     rigid_transform,
