@@ -88,6 +88,22 @@ def test_penetrating_frames_counts_clutter_not_the_target(tasks):
     np.testing.assert_array_equal(pl.penetrating_frames(room, joints), [False, True, False])
 
 
+
+def test_penetrating_frames_measure_every_joint_against_every_other_object_and_the_walls(tasks):
+    """Against the measure taken directly: the distance of every joint to every non-target object and the walls (the
+    function measures only the joints inside an object's bounding box)."""
+    from hoi_tutorial.world.primitives import union_sdf
+
+    room = tasks[0].room
+    rng = np.random.default_rng(3)
+    joints = np.concatenate([rng.uniform([-0.1, -0.1, 0.0], [*(room.size + 0.1), 1.8], size=(400, 22, 3)),
+                             rng.uniform([0.0, 0.0, 0.0], [*room.size, 0.6], size=(400, 22, 3))])
+    others = [obj.sdf(joints) for i, obj in enumerate(room.objects) if i != room.target_index]
+    deepest = np.min(np.stack(others + [union_sdf(joints, room._walls)], axis=-1), axis=-1)
+    direct = (deepest < -0.02).any(axis=-1)
+    assert 0.05 < direct.mean() < 0.95  # both kinds of frame are there
+    np.testing.assert_array_equal(pl.penetrating_frames(room, joints), direct)
+
 def test_room_run_end_to_end_with_and_without_planning(tasks):
     torch.manual_seed(0)
     model = mn.build_motion_model(mn.motionnet_config(

@@ -226,10 +226,17 @@ def penetrating_frames(room, joints: np.ndarray, tolerance: float = 0.02) -> np.
     """``(T,)`` bool: frames where a joint of ``joints (T, 22, 3)`` is more than ``tolerance`` metres
     inside a wall or an object other than the room's target."""
     points = np.asarray(joints, dtype=np.float64)
-    others = [obj.sdf(points) for i, obj in enumerate(room.objects) if i != room.target_index]
-    walls = union_sdf(points, room._walls)
-    distance = np.min(np.stack(others + [walls], axis=-1), axis=-1) if others else walls
-    return (distance < -tolerance).any(axis=-1)
+    inside = (union_sdf(points, room._walls) < -tolerance).reshape(-1)
+    flat = points.reshape(-1, 3)
+    for i, obj in enumerate(room.objects):
+        if i == room.target_index:
+            continue
+        # a joint outside an object's bounding box is outside the object: only those within it are measured
+        lo, hi = obj.bounds
+        near = np.flatnonzero(np.all((flat >= lo) & (flat <= hi), axis=1))
+        if len(near):
+            inside[near] |= obj.sdf(flat[near]) < -tolerance
+    return inside.reshape(points.shape[:-1]).any(axis=-1)
 
 
 def room_voxel_cells(tasks: Sequence[RoomTask], every_object: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
