@@ -1,4 +1,5 @@
 """NIFTY's evaluation protocol (§4.2, Appendix C.2): test scenes, per-motion metrics, Table 1 rows."""
+import copy
 import dataclasses
 import math
 
@@ -75,11 +76,31 @@ def test_scenes_can_use_the_anchors_own_objects(sit_case):
 def test_scenes_are_deterministic_for_a_seed(sit_case):
     _, anchors = sit_case
     a = scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=7)
+    scoring._SCENES_MADE.clear()  # made again, not handed out from the scenes made before
     b = scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=7)
     c = scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=8)
     for x, y in zip(a, b):
         torch.testing.assert_close(x.start.joints, y.start.joints, rtol=0, atol=0)
     assert not torch.equal(a[0].start.joints, c[0].start.joints)
+
+
+def test_scenes_made_before_from_the_same_anchors_are_handed_out_as_copies(sit_case):
+    _, anchors = sit_case
+    scoring._SCENES_MADE.clear()
+    first = scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=5)
+    same = [dataclasses.replace(a, obj=copy.deepcopy(a.obj), betas=a.betas.clone()) for a in anchors]  # equal, not the same
+    again = scoring.test_scenes(same, 3, (1.0, 2.0), seed=5)
+    scoring._SCENES_MADE.clear()
+    fresh = scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=5)
+    for x, y, z in zip(first, again, fresh):
+        assert y.obj is not x.obj and y.start is not x.start  # a copy: a caller changing it changes no other's
+        for scene in (y, z):
+            torch.testing.assert_close(scene.start.joints, x.start.joints, rtol=0, atol=0)
+            assert scene.obj.params == x.obj.params and scene.distance == x.distance and scene.anchor == x.anchor
+    moved = [dataclasses.replace(anchors[0], obj=anchors[0].obj.placed(0.5, 0.0, 0.0)), *anchors[1:]]
+    elsewhere = scoring.test_scenes(moved, 3, (1.0, 2.0), seed=5)
+    assert not np.array_equal(elsewhere[0].obj.pose, first[0].obj.pose)  # another placement: other scenes
+    assert scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=6)[0].distance != first[0].distance
 
 
 def test_scenes_reject_bad_input(sit_case):

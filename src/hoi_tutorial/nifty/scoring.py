@@ -33,7 +33,10 @@ Scaled down: 500 test scenes per action -> 32; sequences of 150 frames -> the mo
 """
 from __future__ import annotations
 
+import collections
+import copy
 import dataclasses
+import hashlib
 import math
 from dataclasses import dataclass
 from typing import Optional, Sequence
@@ -148,6 +151,20 @@ class ScoredMotions:
 
 _PLACEMENT_TRIES = 100
 _START_CLEARANCE = 0.05  # metres between the start body and the object
+# Scenes made in this process, by what they are made from (``_scenes_key``): every evaluation of a chapter asks for the
+# same scenes, and making them (toy-mocap clips, bodies) takes seconds. A copy is handed out each time.
+_SCENES_MADE: "collections.OrderedDict[bytes, list]" = collections.OrderedDict()
+_SCENES_KEPT = 8
+
+
+def _scenes_key(anchors, n_scenes, distance_range, seed, kinds) -> bytes:
+    """What held-out test scenes are made from: each anchor's object category, placement and body shape, and the
+    arguments."""
+    parts = [repr((int(n_scenes), tuple(float(v) for v in distance_range), int(seed), tuple(kinds))).encode()]
+    for anchor in anchors:
+        parts += [anchor.obj.category.encode(), np.asarray(anchor.obj.pose, dtype=np.float64).tobytes(),
+                  np.asarray(anchor.betas, dtype=np.float64).tobytes()]
+    return hashlib.sha256(b"\0".join(parts)).digest()
 
 
 def object_centre(obj) -> np.ndarray:
@@ -188,6 +205,13 @@ def test_scenes(anchors: Sequence, n_scenes: int, distance_range: tuple[float, f
         raise ValueError(f"distance_range: expected 0 < low <= high metres, got {distance_range!r}")
     for kind in kinds:
         check_choice(kind, ("idle", "walk", "turn", "side_step"), "kinds")
+    # held-out scenes depend on the anchors only through their objects' categories and placements and their body
+    # shapes, so scenes made before from the same are the same: a copy of those (the anchor's own objects are not
+    # keyed, and are made again)
+    key = _scenes_key(anchors, n_scenes, (low, high), seed, kinds) if held_out else None
+    if key is not None and key in _SCENES_MADE:
+        _SCENES_MADE.move_to_end(key)
+        return copy.deepcopy(_SCENES_MADE[key])
     rng = np.random.default_rng([int(seed), 4242])
     scenes = []
     for i in range(int(n_scenes)):
@@ -212,6 +236,10 @@ def test_scenes(anchors: Sequence, n_scenes: int, distance_range: tuple[float, f
         else:
             raise RuntimeError(f"test_scenes: no start {low}-{high} m from the {obj.category} clears it")
         scenes.append(TestScene(obj, start, a, distance))
+    if key is not None:
+        _SCENES_MADE[key] = copy.deepcopy(scenes)
+        while len(_SCENES_MADE) > _SCENES_KEPT:
+            _SCENES_MADE.popitem(last=False)
     return scenes
 
 def scene_distance_range(dataset, low: float = 5.0, high: float = 95.0) -> tuple[float, float]:
