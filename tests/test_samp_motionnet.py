@@ -12,7 +12,7 @@ from hoi_tutorial.world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT, SAMP_ST
 from hoi_tutorial.world.objects import make_object
 from hoi_tutorial.world.rotations import rotation_about_z
 
-pytestmark = pytest.mark.usefixtures("one_cpu_thread")
+pytestmark = pytest.mark.usefixtures("one_cpu_thread", "module_cache")  # rollouts are cached
 
 
 def _tiny_data_config(**overrides):
@@ -320,6 +320,46 @@ def test_rollout_follows_goals_in_turn():
         rt.rollout(model, rt.standing_state(), far[:1], goals, 5, torch.Generator())
 
 
+def test_a_cached_rollout_is_the_run_itself_and_any_input_changes_its_key(tmp_cache, monkeypatch):
+    from hoi_tutorial.infra import cache_only
+
+    torch.manual_seed(0)
+    model = mn.build_motion_model(_tiny_model_config()).eval()
+    goals = rt.GoalSequence.single([(2.0, 1.0, 0.0), (0.0, 3.0, 0.0)], [(0, 1, 0), (1, 0, 0)], ["sit", "walk"])
+    roots = torch.tensor([[0.0, 0.0, 0.3], [1.0, 0.0, -0.2]])
+
+    def run(m=model, seed=0, cache=True, **kwargs):
+        generator = torch.Generator().manual_seed(seed)
+        out = rt.rollout(m, rt.standing_state(), roots, goals, 6, generator, cache=cache, **kwargs)
+        return out, generator.get_state()
+
+    def assert_same(a, b):
+        for name in ("states", "roots", "goal_index", "actions"):
+            assert torch.equal(getattr(a[0], name), getattr(b[0], name)), name
+        assert torch.equal(a[1], b[1])  # the generator is left where the run left it
+
+    direct = run(cache=False)
+    assert not list(tmp_cache.iterdir())  # cache=False stores nothing
+    built = run()
+    assert_same(built, direct)
+    files = sorted(p.name for p in tmp_cache.iterdir())
+    assert len(files) == 1 and files[0].startswith("samp_rollout-")
+    with monkeypatch.context() as patch, cache_only():
+        patch.setattr(rt, "_rollout", lambda *args: pytest.fail("a cached run was run again"))
+        assert_same(run(), direct)  # loaded, not run
+    # another seed, latent scale, goal rule or changed weights is another run: never served the cached one
+    changed = mn.build_motion_model(_tiny_model_config()).eval()
+    changed.load_state_dict(model.state_dict())
+    with torch.no_grad():
+        for parameter in changed.parameters():
+            parameter.add_(1e-3)
+    for other in ({"seed": 1}, {"latent_scale": 0.5}, {"m": changed}, {"goal_correction": False}):
+        assert_same(run(**other), run(cache=False, **other))
+    assert len(list(tmp_cache.iterdir())) == 1 + 4
+    with pytest.raises(TypeError, match="MotionModel"):
+        rt.rollout(object(), rt.standing_state(), roots, goals, 6, torch.Generator())
+
+
 def test_correction_pulls_the_future_onto_the_goal_only_near_it():
     clip, _ = md.make_clip("sit", 3)
     positions, directions, _ = md.clip_goals(clip)
@@ -384,6 +424,53 @@ def test_action_frames_keep_the_labelled_frames_per_run():
     labels = samp_action_ids(clip.actions)
     assert len(sitting) == int((labels == SAMP_ACTIONS.index("sit")).sum()) > 0
     assert len(ev.action_frames(torch.stack([states, states]), "sit", per_run=5)) == 10
+
+
+def test_action_fd_is_eq9_on_the_action_frames_and_is_computed_once(tmp_cache, monkeypatch):
+    from hoi_tutorial.infra import cache_only
+    from hoi_tutorial.metrics import frechet_distance
+    from hoi_tutorial.samp import evaluation as ev
+
+    runs = torch.stack([md.clip_states(md.make_clip("sit", seed)[0])[0][-90:] for seed in (3, 4)])  # ending seated
+    sitting = ev.action_frames(runs, "sit")
+    reference = ev.state_features(md.clip_states(md.make_clip("sit", 5)[0])[0], ev.FD_FEATURES)
+    direct = frechet_distance(ev.state_features(sitting, ev.FD_FEATURES), reference)
+    assert ev.action_fd(runs, "sit", reference) == (direct, len(sitting)) and len(sitting) >= 2
+    with monkeypatch.context() as patch, cache_only():
+        patch.setattr(ev, "frechet_distance", lambda *a: pytest.fail("a cached FD was computed again"))
+        assert ev.action_fd(runs, "sit", reference) == (direct, len(sitting))
+    # other runs or another reference: computed for them, never the cached value
+    other = reference[: len(reference) // 2]
+    assert ev.action_fd(runs, "sit", other)[0] == frechet_distance(ev.state_features(sitting, ev.FD_FEATURES), other)
+    assert ev.action_fd(runs[:1], "sit", reference)[1] == len(ev.action_frames(runs[:1], "sit"))
+    assert ev.action_fd(runs, "lie", reference) == (math.inf, 0)  # no frame of the action: ∞ (the paper's)
+    with pytest.raises(ValueError, match="action"):
+        ev.action_fd(runs, "dance", reference)
+
+
+def test_captured_states_and_voxel_cells_are_made_once_for_the_same_object(tmp_cache, monkeypatch):
+    from hoi_tutorial.infra import cache_only
+    from hoi_tutorial.samp import evaluation as ev
+
+    chair = make_object("chair", 3)
+    made = ev.captured_states("sit", chair, n=2)
+    for k in range(2):
+        assert torch.equal(made[k], md.clip_states(md.make_clip("sit", 5000 + k, obj=chair)[0])[0])
+    with monkeypatch.context() as patch, cache_only():
+        patch.setattr(ev, "make_clip", lambda *a, **k: pytest.fail("cached clips were made again"))
+        assert all(torch.equal(a, b) for a, b in zip(ev.captured_states("sit", chair, n=2), made))
+    moved = chair.placed(1.0, 0.0, 0.3)
+    assert not torch.equal(ev.captured_states("sit", moved, n=1)[0], made[0])  # another object: made for it
+    with pytest.raises(ValueError, match="n"):
+        ev.captured_states("sit", chair, n=0)
+    # the cells: the same as object_voxel_cells, copies, and those of the object as it is now
+    cells = ev.voxel_cells(chair)
+    for got, want in zip(cells, md.object_voxel_cells(chair)):
+        assert np.array_equal(got, want)
+    cells[0][:] = 0.0
+    assert np.array_equal(ev.voxel_cells(chair)[0], md.object_voxel_cells(chair)[0])
+    assert np.array_equal(ev.voxel_cells(moved)[0], md.object_voxel_cells(moved)[0])
+    assert not np.array_equal(ev.voxel_cells(moved)[0], ev.voxel_cells(chair)[0])
 
 
 def test_the_public_code_variant_restores_only_the_goal():

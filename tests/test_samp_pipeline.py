@@ -11,7 +11,7 @@ from hoi_tutorial.samp import goalnet as gn, motion_data as md, motionnet as mn,
 from hoi_tutorial.world.features import SAMP_STATE_SIZE
 from hoi_tutorial.world.scenes import make_room
 
-pytestmark = pytest.mark.usefixtures("one_cpu_thread")
+pytestmark = pytest.mark.usefixtures("one_cpu_thread", "module_cache")  # rollouts are cached
 
 
 @pytest.fixture(scope="module")
@@ -125,6 +125,44 @@ def test_room_run_end_to_end_with_and_without_planning(tasks):
                 assert under[frame] and not under[:frame].any()
     with pytest.raises(ValueError, match="tasks"):
         pl.run_room_tasks(model, [])
+
+
+def test_a_cached_room_run_is_the_run_itself_and_a_moved_object_is_another_room(tasks, tmp_cache, monkeypatch):
+    import dataclasses
+
+    from hoi_tutorial.infra import cache_only
+
+    torch.manual_seed(0)
+    model = mn.build_motion_model(mn.motionnet_config(
+        state_hidden=(16, 8, 8), interaction_hidden=(8, 8), interaction_out=4, gating_hidden=(8, 4),
+        prediction_hidden=16, n_experts=2, latent=2)).eval()
+    arguments = dict(seconds=0.4, seed=0, planning=True, latent_scale=1.0, settle=1.5, reach_radius=0.3,
+                     switch="waypoints", action_radius=1.5, waypoint_radius=pl.WAYPOINT_RADIUS)
+
+    def assert_same(a, b):
+        for name in ("execution_time", "position_error", "rotation_error", "reached", "penetration"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+        for name in ("states", "roots", "goal_index", "actions"):
+            assert torch.equal(getattr(a.rollout, name), getattr(b.rollout, name)), name
+        assert len(a.waypoints) == len(b.waypoints)
+        for wa, wb in zip(a.waypoints, b.waypoints):
+            np.testing.assert_array_equal(wa, wb)
+
+    direct = pl._run_room_tasks(model, tasks, **arguments)
+    assert_same(pl.run_room_tasks(model, tasks, seconds=0.4), direct)
+    assert [p.name.split("-")[0] for p in tmp_cache.iterdir()] == ["samp_room_runs"]  # the run's motion inside it
+    with monkeypatch.context() as patch, cache_only():
+        patch.setattr(pl, "_run_room_tasks", lambda *a, **k: pytest.fail("a cached room run was run again"))
+        assert_same(pl.run_room_tasks(model, tasks, seconds=0.4), direct)
+    # a clutter object moved by 10 cm makes another room: run for it, never the cached run
+    room = tasks[0].room
+    clutter = next(i for i in range(len(room.objects)) if i != room.target_index)
+    objects = list(room.objects)
+    objects[clutter] = objects[clutter].with_pose(objects[clutter].pose @ np.diag([1.0, 1.0, 1.0, 1.0])
+                                                   + np.pad(np.array([[0.1], [0.0], [0.0]]), ((0, 1), (3, 0))))
+    moved = [dataclasses.replace(tasks[0], room=dataclasses.replace(room, objects=objects)), tasks[1]]
+    assert_same(pl.run_room_tasks(model, moved, seconds=0.4), pl._run_room_tasks(model, moved, **arguments))
+    assert len(list(tmp_cache.iterdir())) == 2
 
 
 def test_room_voxel_cells_give_the_target_or_every_object(tasks):

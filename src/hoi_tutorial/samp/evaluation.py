@@ -25,6 +25,7 @@
 """
 from __future__ import annotations
 
+import collections
 import math
 from dataclasses import dataclass, field
 from typing import Optional, Sequence
@@ -34,16 +35,17 @@ import torch
 
 from .. import intervals
 from .._validate import check_choice, check_shape
-from ..metrics import average_pairwise_distance, execution_time, goal_precision
+from ..metrics import average_pairwise_distance, execution_time, frechet_distance, goal_precision
 from ..world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE
 from ..world.objects import ToyObject, make_object
 from .core import MotionModel
 from .motion_data import OBJECT_CATEGORIES, clip_states, lie_facing, make_clip, object_voxel_cells
-from .runtime import GoalSequence, Rollout, current_action, rollout, standing_state
+from ..infra import load_or_build
+from .runtime import GoalSequence, Rollout, content_digest, current_action, object_digest, rollout, standing_state
 
 __all__ = ["GoalTask", "goal_tasks", "precision_summary", "paired_over_acted", "GoalRunResults", "run_goal_tasks", "measure_goal_runs", "LOCAL_POSE_FEATURES", "FD_FEATURES",
-           "state_features", "direction_runs", "standing_runs", "action_frames", "repeated_goal_runs", "run_spread",
-           "captured_states", "onset_windows", "onset_spread", "MeasuredRuns", "onset_in_goal_frame"]
+           "state_features", "action_fd", "direction_runs", "standing_runs", "action_frames", "repeated_goal_runs", "run_spread",
+           "captured_states", "voxel_cells", "onset_windows", "onset_spread", "MeasuredRuns", "onset_in_goal_frame"]
 
 
 @dataclass
@@ -186,7 +188,7 @@ def run_goal_tasks(model: MotionModel, tasks: Sequence[GoalTask], seconds: float
     n_frames = int(round(seconds * fps))
     goals = GoalSequence.single(np.stack([t.goal_position for t in tasks]), np.stack([t.goal_direction for t in tasks]),
                                 [t.action for t in tasks])
-    cells = [object_voxel_cells(t.obj) for t in tasks]
+    cells = [voxel_cells(t.obj) for t in tasks]
     centres = torch.as_tensor(np.stack([c for c, _ in cells]))
     occupancy = torch.as_tensor(np.stack([o for _, o in cells]))
     roots = torch.as_tensor(np.stack([t.start_root for t in tasks]), dtype=torch.float32)
@@ -274,6 +276,32 @@ def standing_runs(model: MotionModel, n_runs: int = 10, seconds: float = 10.0, s
                    torch.Generator().manual_seed(int(seed)), latent_scale=latent_scale)
 
 
+def action_fd(states: torch.Tensor, action: str, reference) -> tuple[float, int]:
+    """Realism (Table 4, Eq. 9): the Fréchet distance between the frames of ``states`` labelled ``action``
+    (:func:`action_frames`) and ``reference``, on ``FD_FEATURES``, computed once (then from the cache: the
+    matrix square root of a product of two 292×292 covariances takes a second).
+
+    Args:
+        states: ``(R, T, 437)`` runs (or ``(T, 437)``).
+        action: one of ``SAMP_ACTIONS``.
+        reference: ``(M, D)`` the ground truth's features (:func:`state_features` with ``FD_FEATURES``).
+    Returns:
+        ``(FD, frames)``: ``metrics.frechet_distance`` (``inf`` with fewer than two frames of the action) and
+        how many generated frames it used.
+    """
+    check_choice(action, SAMP_ACTIONS, "action")
+    states = torch.as_tensor(states)
+    reference = np.asarray(reference)
+
+    def build():
+        frames = state_features(action_frames(states, action), FD_FEATURES)
+        return {"fd": frechet_distance(frames, reference) if len(frames) >= 2 else math.inf, "frames": len(frames)}
+
+    key = {"states": content_digest(states), "action": action, "reference": content_digest(reference)}
+    out = load_or_build("samp_action_fd", key, build, verbose=False)
+    return float(out["fd"]), int(out["frames"])
+
+
 def action_frames(states: torch.Tensor, action: str, per_run: Optional[int] = None) -> torch.Tensor:
     """``(n, 437)`` the states of runs ``states (R, T, 437)`` whose own current label is ``action``.
 
@@ -307,9 +335,31 @@ def run_spread(states: torch.Tensor) -> float:
 
 def captured_states(action: str, obj: ToyObject, n: int = 10, first_seed: int = 5000) -> list:
     """The ground truth of one object: ``n`` toy-mocap clips of ``action`` on ``obj`` (seeds ``first_seed``,
-    ``first_seed + 1``, …; each draws its own style, start and goal), as state sequences ``(T_k, 437)``."""
+    ``first_seed + 1``, …; each draws its own style, start and goal), as state sequences ``(T_k, 437)``; made
+    once (then from the cache)."""
     check_choice(action, tuple(OBJECT_CATEGORIES), "action")
-    return [clip_states(make_clip(action, first_seed + k, obj=obj)[0])[0] for k in range(int(n))]
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ValueError(f"n: expected a positive int, got {n!r}")
+    key = {"action": action, "object": object_digest(obj), "n": n, "first_seed": int(first_seed)}
+    return load_or_build("samp_captured_states", key,
+                         lambda: [clip_states(make_clip(action, first_seed + k, obj=obj)[0])[0] for k in range(n)])
+
+
+# A goal run's objects recur (every model runs the same tasks): their cells are made once per process.
+_CELLS: "collections.OrderedDict[str, tuple]" = collections.OrderedDict()
+_CELLS_KEPT = 256
+
+
+def voxel_cells(obj: ToyObject) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~hoi_tutorial.samp.motion_data.object_voxel_cells` of ``obj``, made once per process for the same
+    object (:func:`~hoi_tutorial.samp.runtime.object_digest`); the arrays are copies."""
+    key = object_digest(obj)
+    if key not in _CELLS:
+        _CELLS[key] = object_voxel_cells(obj)
+        while len(_CELLS) > _CELLS_KEPT:
+            _CELLS.popitem(last=False)
+    _CELLS.move_to_end(key)
+    return tuple(a.copy() for a in _CELLS[key])
 
 
 def onset_windows(runs, action: str, before: float = 1.0, after: float = 2.0, fps: float = 30.0) -> torch.Tensor:

@@ -39,11 +39,11 @@ import torch
 from .._validate import check_choice, check_shape
 from ..world.primitives import union_sdf
 from .core import GoalNetCVAE, MotionModel
-from .evaluation import MeasuredRuns, measure_goal_runs
+from .evaluation import MeasuredRuns, measure_goal_runs, voxel_cells
 from .goalnet import sample_goals
-from .motion_data import object_voxel_cells
 from .planning import check_room_point, plan_path, reaches, simplify_waypoints, straight_walk_is_free
-from .runtime import GoalSequence, Rollout, rollout, standing_state
+from ..infra import load_or_build
+from .runtime import GoalSequence, Rollout, content_digest, model_digest, object_digest, rollout, standing_state
 
 __all__ = ["RoomTask", "room_tasks", "SWITCHES", "WAYPOINT_RADIUS", "goals_along_path", "PathGoals", "room_voxel_cells", "RoomRunResults",
            "penetrating_frames", "run_room_tasks"]
@@ -250,7 +250,7 @@ def room_voxel_cells(tasks: Sequence[RoomTask], every_object: bool = False) -> t
     per_task = []
     for t in tasks:
         objects = list(t.room.objects) if every_object else [t.room.target]
-        per_task.append([object_voxel_cells(obj) for obj in objects])
+        per_task.append([voxel_cells(obj) for obj in objects])
     most = max(len(cells) for cells in per_task)
     centres, occupancy = [], []
     for cells in per_task:
@@ -305,7 +305,9 @@ def run_room_tasks(model: MotionModel, tasks: Sequence[RoomTask], seconds: float
                    planning: bool = True, latent_scale: float = 1.0, settle: float = 1.5,
                    reach_radius: float = 0.3, switch: str = "waypoints", action_radius: float = 1.5,
                    waypoint_radius: float = WAYPOINT_RADIUS) -> RoomRunResults:
-    """Run the tasks as one batch, with or without path planning, and measure them (module docstring).
+    """Run the tasks as one batch, with or without path planning, and measure them (module docstring);
+    once (then from the cache: the plans, the motion and the measures, keyed by the model, every room's
+    objects and the tasks, bit for bit, and the arguments).
 
     ``switch`` (with planning): ``"path"``, the sitting goal takes over by the rest of the path
     (:class:`PathGoals`), or ``"waypoints"``, after every waypoint (:func:`goals_along_path`), within
@@ -314,6 +316,37 @@ def run_room_tasks(model: MotionModel, tasks: Sequence[RoomTask], seconds: float
     if not tasks:
         raise ValueError("tasks: expected at least one RoomTask")
     check_choice(switch, SWITCHES, "switch")
+    args = {"seconds": float(seconds), "seed": int(seed), "planning": bool(planning), "latent_scale": float(latent_scale),
+            "settle": float(settle), "reach_radius": float(reach_radius), "switch": switch,
+            "action_radius": float(action_radius), "waypoint_radius": float(waypoint_radius)}
+    key = {"model": model_digest(model), "device": str(model.x_mean.device), "tasks": [_task_digest(t) for t in tasks],
+           **args}
+
+    def build():
+        r = _run_room_tasks(model, tasks, **args)
+        return {"execution_time": r.execution_time, "position_error": r.position_error,
+                "rotation_error": r.rotation_error, "reached": r.reached, "penetration": r.penetration,
+                "states": r.rollout.states, "roots": r.rollout.roots, "goal_index": r.rollout.goal_index,
+                "actions": r.rollout.actions, "waypoints": r.waypoints}
+
+    out = load_or_build("samp_room_runs", key, build, code=(type(model),))  # the model's code counts too
+    return RoomRunResults(out["execution_time"], out["position_error"], out["rotation_error"], out["reached"],
+                          out["penetration"], Rollout(out["states"], out["roots"], out["goal_index"], out["actions"]),
+                          list(out["waypoints"]), float(reach_radius))
+
+
+def _task_digest(task: RoomTask) -> str:
+    """What a room task is, bit for bit: its room (size, grid, objects) and its start and goal."""
+    room = task.room
+    return content_digest(np.asarray(room.size, dtype=np.float64), int(room.target_index), float(room.cell_size),
+                          float(room.body_radius), *[object_digest(obj) for obj in room.objects],
+                          np.asarray(task.goal_position, dtype=np.float64),
+                          np.asarray(task.goal_direction, dtype=np.float64),
+                          np.asarray(task.start_root, dtype=np.float64))
+
+
+def _run_room_tasks(model, tasks, seconds, seed, planning, latent_scale, settle, reach_radius, switch, action_radius,
+                    waypoint_radius) -> RoomRunResults:
     fps = 30.0
     n_frames = int(round(seconds * fps))
     plans = [goals_along_path(t, planning=planning, switch=switch, action_radius=action_radius,
@@ -325,8 +358,9 @@ def run_room_tasks(model: MotionModel, tasks: Sequence[RoomTask], seconds: float
         goals = GoalSequence.from_lists([g for g, _ in plans])
     centres, occupancy = room_voxel_cells(tasks, every_object=model.environment_sensor)
     roots = torch.as_tensor(np.stack([t.start_root for t in tasks]), dtype=torch.float32)
+    # the room run is cached whole (below), its motion with it
     out = rollout(model, standing_state(), roots, goals, n_frames, torch.Generator().manual_seed(int(seed)),
-                  centres, occupancy, latent_scale=latent_scale)
+                  centres, occupancy, latent_scale=latent_scale, cache=False)
     times, pe, re, reached = measure_goal_runs(out, ["sit"] * len(tasks), [t.goal_position for t in tasks],
                                                [t.goal_direction for t in tasks], settle, reach_radius, fps)
     joints = out.joints().double().numpy()

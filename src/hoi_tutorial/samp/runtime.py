@@ -19,6 +19,8 @@ Everything is batched over ``B`` characters, each with its own goals and object.
 """
 from __future__ import annotations
 
+import hashlib
+import pickle
 from dataclasses import dataclass
 from typing import Optional
 
@@ -26,7 +28,7 @@ import numpy as np
 import torch
 
 from .._validate import as_tensor, check_shape
-from ..infra import single_threaded
+from ..infra import load_or_build, single_threaded
 from ..world import mocap
 from ..world.features import SAMP_ACTIONS, SAMP_SAMPLE_OFFSETS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE, samp_pose_state
 from ..world.skeleton import NUM_JOINTS
@@ -38,6 +40,9 @@ from .sensor import sensor_voxels
 
 __all__ = [
     "CURRENT_SAMPLE",
+    "content_digest",
+    "object_digest",
+    "model_digest",
     "current_action",
     "GoalSequence",
     "goal_features",
@@ -195,13 +200,56 @@ def current_action(states: torch.Tensor) -> torch.Tensor:
     return labels.argmax(-1)
 
 
-@torch.no_grad()
-@single_threaded
+def content_digest(*items) -> str:
+    """sha256 hex of tensors and numpy arrays (dtype, shape and bytes), numbers, strings and ``None``, in order:
+    a key for what is computed from them."""
+    h = hashlib.sha256()
+    for item in items:
+        if isinstance(item, np.ndarray):
+            item = torch.from_numpy(np.ascontiguousarray(item))
+        if isinstance(item, torch.Tensor):
+            t = item.detach().to("cpu").contiguous()
+            h.update(f"tensor {t.dtype} {tuple(t.shape)};".encode())
+            h.update(t.reshape(-1).view(torch.uint8).numpy().tobytes())
+        elif item is None or isinstance(item, (bool, int, float, str)):
+            h.update(f"{type(item).__name__} {item!r};".encode())
+        else:
+            raise TypeError(f"cannot digest a {type(item).__name__}")
+    return h.hexdigest()
+
+
+def object_digest(obj) -> str:
+    """sha256 hex of everything that makes a toy object what it is: its category, sizes, parts, affordances and
+    pose, bit for bit (a key for what is computed from the object alone)."""
+    for attr in ("category", "params", "primitives", "annotations", "pose"):
+        if not hasattr(obj, attr):
+            raise TypeError(f"obj: expected a ToyObject (world.objects.make_object), got {type(obj).__name__}")
+    return hashlib.sha256(pickle.dumps((obj.category, obj.params, obj.primitives, obj.annotations,
+                                        np.asarray(obj.pose, dtype=np.float64)), protocol=4)).hexdigest()
+
+
+def model_digest(model: MotionModel) -> str:
+    """The model as a rollout runs it: its class, its plain attributes (``latent``, ``environment_sensor``,
+    ``training``, …) and every parameter and buffer, bit for bit."""
+    if not isinstance(model, MotionModel):
+        raise TypeError(f"model: expected a samp.core.MotionModel, got {type(model).__name__}")
+    plain = sorted((name, value) for name, value in vars(model).items()
+                   if not name.startswith("_") and isinstance(value, (bool, int, float, str)))
+    weights = model.state_dict()
+    return content_digest(f"{type(model).__module__}.{type(model).__qualname__}", repr(plain),
+                   *[item for name in sorted(weights) for item in (name, weights[name])])
+
+
 def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, goals: GoalSequence,
             n_frames: int, generator: torch.Generator, voxel_centres: Optional[torch.Tensor] = None,
             voxel_occupancy: Optional[torch.Tensor] = None, latent_scale: float = 1.0,
-            goal_correction: bool = True) -> Rollout:
-    """Step ``B`` characters for ``n_frames`` frames with the model's decoder.
+            goal_correction: bool = True, cache: bool = True) -> Rollout:
+    """Step ``B`` characters for ``n_frames`` frames with the model's decoder, once (then from the cache).
+
+    Generated motion goes through the artifact cache like a trained model: the key is everything the
+    run depends on, bit for bit (the model's class, weights and settings, the start, the goals, the
+    object cells, the generator's state, the arguments; the code of this module and of the model's),
+    so a cached run is the run this call would make. The generator is left where the run left it.
 
     Args:
         model: a trained MotionNet (``Z ~ N(0, latent_scale² I)``) or a deterministic baseline.
@@ -217,13 +265,43 @@ def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, 
         latent_scale: σ of the latent draws.
         goal_correction: near the goal, blend the future trajectory towards its goal-frame
             prediction (:func:`correct_towards_goal`, SAMP's public run-time code).
+        cache: ``False`` runs without the cache (and stores nothing).
     Returns:
         :class:`Rollout`.
     """
-    if not isinstance(n_frames, int) or n_frames < 1:
+    if not isinstance(n_frames, int) or isinstance(n_frames, bool) or n_frames < 1:
         raise ValueError(f"n_frames: expected a positive int, got {n_frames!r}")
     if not isinstance(generator, torch.Generator):
         raise TypeError(f"generator: expected a torch.Generator, got {type(generator).__name__}")
+    if generator.device.type != "cpu":
+        raise ValueError(f"generator: expected a CPU torch.Generator, got one on {generator.device}")
+    args = (model, start, start_roots, goals, n_frames, generator, voxel_centres, voxel_occupancy,
+            float(latent_scale), bool(goal_correction))
+    if not cache:
+        return _rollout(*args)
+    key = {"model": model_digest(model), "device": str(model.x_mean.device),
+           "inputs": content_digest(as_tensor(start, "start"), as_tensor(start_roots, "start_roots"), goals.positions,
+                             goals.directions, goals.actions, goals.radii, goals.counts,
+                             None if voxel_centres is None else as_tensor(voxel_centres, "voxel_centres"),
+                             None if voxel_occupancy is None else as_tensor(voxel_occupancy, "voxel_occupancy")),
+           "generator": content_digest(generator.get_state()), "n_frames": n_frames, "latent_scale": float(latent_scale),
+           "goal_correction": bool(goal_correction)}
+
+    def build():
+        out = _rollout(*args)
+        return {"states": out.states, "roots": out.roots, "goal_index": out.goal_index, "actions": out.actions,
+                "generator_state": generator.get_state()}
+
+    # the model's own code counts as well as this module's (its class may live outside samp.core)
+    artifact = load_or_build("samp_rollout", key, build, code=(type(model),), verbose=False)
+    generator.set_state(artifact["generator_state"])
+    return Rollout(artifact["states"], artifact["roots"], artifact["goal_index"], artifact["actions"])
+
+
+@torch.no_grad()
+@single_threaded
+def _rollout(model, start, start_roots, goals, n_frames, generator, voxel_centres, voxel_occupancy, latent_scale,
+             goal_correction) -> Rollout:
     roots = as_tensor(start_roots, "start_roots", dtype=torch.float32)
     check_shape(roots, (None, 3), "start_roots")
     B = roots.shape[0]
