@@ -109,14 +109,17 @@ PRETRAINED_LINE = "PRETRAINED = False  # True: the release's pretrained pack (a 
 PRETRAINED_TAGS = ["hide-cell", "pretrained"]
 
 
-def pretrained_source() -> str:
-    """The code of cell 3: unpack the pack ``PRETRAINED`` names (nothing when it is ``False``)."""
+def pretrained_source(chapter: str) -> str:
+    """The code of cell 3 of the chapter ``chapter`` (its notebook's name): unpack the artifacts of the pack
+    ``PRETRAINED`` names that this chapter uses (nothing when it is ``False``)."""
+    if not re.fullmatch(r"[0-9A-Za-z_]+", chapter):
+        raise ValueError(f"chapter: expected a notebook's name (letters, digits, '_'), got {chapter!r}")
     return (
-        "# A pretrained pack, only when PRETRAINED asks for one: its artifacts that the installed code built are\n"
-        "# unpacked into the cache, and the chapter loads them instead of building them.\n"
+        "# A pretrained pack, only when PRETRAINED asks for one: the artifacts of this chapter that the installed code\n"
+        "# built are unpacked into the cache, and the chapter loads them instead of building them.\n"
         "from hoi_tutorial.infra import use_pretrained\n"
         "\n"
-        "_pack = use_pretrained(PRETRAINED, scale=SCALE, seed=SEED)\n"
+        f'_pack = use_pretrained(PRETRAINED, scale=SCALE, seed=SEED, chapter="{chapter}")\n'
     )
 
 
@@ -159,7 +162,7 @@ def stamp(path: Path, check: bool = False) -> bool:
     params = cells[at] if len(cells) > at and "parameters" in cells[at].metadata.get("tags", []) else None
     params_ok = params is None or _with_pretrained_line(params.source) == params.source
     third = cells[at + 1] if len(cells) > at + 1 and "pretrained" in cells[at + 1].metadata.get("tags", []) else None
-    third_ok = params is None or (third is not None and third.source == pretrained_source()
+    third_ok = params is None or (third is not None and third.source == pretrained_source(path.stem)
                                   and third.metadata.get("tags") == PRETRAINED_TAGS)
     if setup_ok and params_ok and third_ok:
         return False
@@ -173,7 +176,7 @@ def stamp(path: Path, check: bool = False) -> bool:
         cells.insert(0, wanted)
     if params is not None:
         params.source = _with_pretrained_line(params.source)
-        cell = nbformat.v4.new_code_cell(pretrained_source(), metadata={"tags": list(PRETRAINED_TAGS)})
+        cell = nbformat.v4.new_code_cell(pretrained_source(path.stem), metadata={"tags": list(PRETRAINED_TAGS)})
         if third is not None:
             cell.id = third.id
             cells[2] = cell

@@ -53,7 +53,7 @@ def test_notebook_conventions(path):
         assert f"{name} =" in second.source, f"parameters cell lacks {name}"
     assert notebook_cells.PRETRAINED_LINE in second.source, "the pretrained pack is off by default"
     third = nb.cells[2]
-    assert third.source == notebook_cells.pretrained_source() and "hide-cell" in third.metadata.get("tags", []), \
+    assert third.source == notebook_cells.pretrained_source(path.stem) and "hide-cell" in third.metadata.get("tags", []), \
         "cell 3 is not the current pretrained-pack cell"
     assert any("assert " in c.source for c in code), "a chapter asserts what it claims"
     assert f"notebooks/{path.stem}" in _toc_files(), "chapter missing from _toc.yml"
@@ -70,9 +70,10 @@ def test_stamping_adds_the_pretrained_parameter_and_cell(tmp_path):
     cells = nbformat.read(path, as_version=4).cells
     assert [c.source.splitlines()[0] for c in cells[1:3]] == ['SCALE = "toy"', cells[2].source.splitlines()[0]]
     assert cells[1].source == 'SCALE = "toy"\nSEED = 0\nDEVICE = "auto"\n' + notebook_cells.PRETRAINED_LINE + "N = 3"
-    assert cells[2].source == notebook_cells.pretrained_source() and cells[3].source == "assert N == 3"
+    assert cells[2].source == notebook_cells.pretrained_source("chapter") and cells[3].source == "assert N == 3"
+    assert 'chapter="chapter"' in cells[2].source  # the pack unpacks what this chapter uses
     assert not notebook_cells.stamp(path)  # stamped once: nothing left to change
     namespace = {"SCALE": "toy", "SEED": 0}
     exec(notebook_cells.PRETRAINED_LINE, namespace)
-    exec(notebook_cells.pretrained_source(), namespace)  # off by default: unpacks nothing
+    exec(notebook_cells.pretrained_source("chapter"), namespace)  # off by default: unpacks nothing
     assert namespace["PRETRAINED"] is False and namespace["_pack"] is None

@@ -60,6 +60,26 @@ def test_a_pack_unpacked_into_an_empty_cache_is_loaded_without_building(tmp_path
     assert len(again.present) == 2 and not again.unpacked
 
 
+def test_a_chapter_unpacks_only_what_it_used_when_the_pack_was_made(tmp_path, monkeypatch, toy_library):
+    _, data, other = toy_library
+    _book_run(tmp_path / "run", monkeypatch, data, other)
+    names = sorted(p.name for p in (tmp_path / "run").iterdir())
+    first = next(n for n in names if n.startswith("toy_data"))
+    manifest = pack.make_pack(tmp_path / "p.zip", tmp_path / "run", scale="toy", seed=0,
+                              chapters={"01_data": [first], "02_both": names})
+    assert manifest["chapters"] == {"01_data": [first], "02_both": names}
+    only = pack.unpack(tmp_path / "p.zip", tmp_path / "a", chapter="01_data", verbose=False)
+    assert only.unpacked == [first] and only.chapter == "01_data" and "chapter 01_data" in only.summary()
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == [first]
+    # a chapter the manifest does not list, or none, gets every artifact
+    for chapter in ("99_unknown", None):
+        folder = tmp_path / f"b_{chapter}"
+        assert sorted(pack.unpack(tmp_path / "p.zip", folder, chapter=chapter, verbose=False).unpacked) == names
+    with pytest.raises(ValueError, match="chapters"):
+        pack.make_pack(tmp_path / "q.zip", tmp_path / "run", scale="toy", seed=0,
+                       chapters={"01_data": ["toy_gone-0123456789abcdef.pt"]})
+
+
 def test_a_pack_built_before_a_library_edit_is_refused_for_what_the_edit_touches(tmp_path, monkeypatch, toy_library):
     root, data, other = toy_library
     _book_run(tmp_path / "run", monkeypatch, data, other)

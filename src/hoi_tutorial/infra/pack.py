@@ -88,22 +88,26 @@ def _installed_digest(module: str) -> Optional[str]:
 
 
 def make_pack(path: Union[str, os.PathLike], cache: Union[str, os.PathLike, None] = None, *, scale: str,
-              seed: int) -> dict:
+              seed: int, chapters: Optional[dict] = None) -> dict:
     """Pack every artifact of the cache folder ``cache`` (default: the cache) into the zip file ``path``.
 
     Args:
         path: the pack to write (``.zip``; replaced atomically when it exists).
         cache: the folder of a book run at one scale and seed (``make artifacts`` gives each run its own).
         scale, seed: what that run used; recorded, and checked by :func:`unpack` against the reader's.
+        chapters: ``{chapter: artifact file names}``, what each chapter loaded or built in that run
+            (``scripts/make_pack.py`` records it): :func:`unpack` for one chapter unpacks only its own.
 
     Returns:
         the manifest (also stored in the pack as ``manifest.json``): ``format``, ``package``, ``version``,
-        ``scale``, ``seed``, ``torch``, ``created`` and ``files`` (one record per artifact file: ``name``,
-        ``bytes``, ``sha256``, ``modules`` = {library module: sha256 of its source}).
+        ``scale``, ``seed``, ``torch``, ``created``, ``files`` (one record per artifact file: ``name``,
+        ``bytes``, ``sha256``, ``modules`` = {library module: sha256 of its source}) and, when given,
+        ``chapters``.
 
     Raises:
         FileNotFoundError: no cache folder or no artifact in it.
-        ValueError: an artifact that does not record the modules it ran (built by an older library): rebuild it.
+        ValueError: an artifact that does not record the modules it ran (built by an older library): rebuild it;
+            a chapter's file that the cache does not hold.
     """
     folder = pathlib.Path(cache) if cache is not None else cache_dir()
     if not folder.is_dir():
@@ -126,6 +130,14 @@ def make_pack(path: Union[str, os.PathLike], cache: Union[str, os.PathLike, None
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "files": records,
     }
+    if chapters is not None:
+        packed = {record["name"] for record in records}
+        for chapter, names in chapters.items():
+            missing = sorted(set(names) - packed)
+            if not isinstance(chapter, str) or missing:
+                raise ValueError(f"chapters[{chapter!r}]: expected names of the cache's artifact files; not in "
+                                 f"{folder}: {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}")
+        manifest["chapters"] = {chapter: sorted(set(names)) for chapter, names in sorted(chapters.items())}
     path = pathlib.Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
@@ -170,11 +182,14 @@ class UnpackReport:
     unpacked: list
     present: list
     stale: dict  # file name -> modules whose installed source differs from the pack's (or is missing)
+    chapter: Optional[str] = None  # the chapter whose artifacts alone were unpacked (None: every artifact)
 
     def summary(self) -> str:
         usable = len(self.unpacked) + len(self.present)
-        line = (f"[pack] {usable} of {usable + len(self.stale)} artifacts of {self.source} (version {self.version}) "
-                f"match the installed code: {len(self.unpacked)} unpacked, {len(self.present)} already cached")
+        which = f"the artifacts chapter {self.chapter} uses" if self.chapter else "the artifacts"
+        line = (f"[pack] {usable} of {usable + len(self.stale)} of {which} in {self.source} (version "
+                f"{self.version}) match the installed code: {len(self.unpacked)} unpacked, {len(self.present)} "
+                "already cached")
         if self.stale:
             modules = sorted({m for ms in self.stale.values() for m in ms})
             shown = ", ".join(modules[:5]) + (f" and {len(modules) - 5} more" if len(modules) > 5 else "")
@@ -208,7 +223,7 @@ def _fetch(source: str, sha256: Optional[str]) -> pathlib.Path:
 
 def unpack(source: Union[str, os.PathLike], cache: Union[str, os.PathLike, None] = None, *,
            scale: Optional[str] = None, seed: Optional[int] = None, sha256: Optional[str] = None,
-           verbose: bool = True) -> UnpackReport:
+           chapter: Optional[str] = None, verbose: bool = True) -> UnpackReport:
     """Unpack the pack ``source`` (a path or URL) into the cache folder ``cache`` (default: the cache).
 
     Only artifacts whose recorded modules all have, installed, the same source (SHA-256) are copied; each file is
@@ -218,6 +233,9 @@ def unpack(source: Union[str, os.PathLike], cache: Union[str, os.PathLike, None]
     Args:
         scale, seed: the reader's; a pack built for others is refused (its artifacts would never be loaded).
         sha256: the pack file's expected SHA-256 (checked by pooch for a URL, here for a path).
+        chapter: a chapter's notebook name (``"12_samp_motionnet"``): only the artifacts that chapter loaded or
+            built when the pack was made (the manifest's ``chapters``); every artifact when the manifest does not
+            list the chapter.
 
     Raises:
         PackMismatchError: another scale or seed, a file that fails its hash, or no artifact that matches the
@@ -234,8 +252,14 @@ def unpack(source: Union[str, os.PathLike], cache: Union[str, os.PathLike, None]
     folder.mkdir(parents=True, exist_ok=True)
     installed = {}
     report = UnpackReport(source=path.name, version=str(manifest.get("version")), unpacked=[], present=[], stale={})
+    records = manifest["files"]
+    wanted = manifest.get("chapters", {}).get(chapter) if chapter is not None else None
+    if wanted is not None:
+        wanted = set(wanted)
+        records = [record for record in records if record["name"] in wanted]
+        report.chapter = chapter
     with zipfile.ZipFile(path) as archive:
-        for record in manifest["files"]:
+        for record in records:
             name = record["name"]
             if not _ARTIFACT_FILE.match(name):
                 raise PackMismatchError(f"{path.name}: {name!r} is not an artifact file name; refusing the pack")
@@ -267,11 +291,12 @@ def unpack(source: Union[str, os.PathLike], cache: Union[str, os.PathLike, None]
                 pathlib.Path(tmp).unlink(missing_ok=True)
                 raise
             report.unpacked.append(name)
-    if manifest["files"] and not report.unpacked and not report.present:
+    if records and not report.unpacked and not report.present:
         modules = sorted({m for ms in report.stale.values() for m in ms})
+        which = f"artifacts that chapter {chapter} uses" if wanted is not None else "artifacts"
         raise PackMismatchError(
             f"{path.name} was built from other code (version {manifest.get('version')}): every one of its "
-            f"{len(manifest['files'])} artifacts ran library modules whose source differs from the installed "
+            f"{len(records)} {which} ran library modules whose source differs from the installed "
             f"hoi_tutorial {_version()} ({', '.join(modules[:8])}{' ...' if len(modules) > 8 else ''}). "
             "Install the release the pack was built from, or set PRETRAINED = False to build everything")
     if verbose:
@@ -279,13 +304,15 @@ def unpack(source: Union[str, os.PathLike], cache: Union[str, os.PathLike, None]
     return report
 
 
-def use_pretrained(pretrained, scale: str, seed: int, sha256: Optional[str] = None) -> Optional[UnpackReport]:
+def use_pretrained(pretrained, scale: str, seed: int, sha256: Optional[str] = None,
+                   chapter: Optional[str] = None) -> Optional[UnpackReport]:
     """What a chapter's ``PRETRAINED`` parameter asks for: ``False`` / ``None`` / ``""`` nothing, ``True`` the
-    installed release's pack for ``scale`` and ``seed`` (:func:`release_pack_url`), a string a pack's path or URL."""
+    installed release's pack for ``scale`` and ``seed`` (:func:`release_pack_url`), a string a pack's path or URL;
+    ``chapter`` (the chapter's notebook name) unpacks only what that chapter uses (:func:`unpack`)."""
     if pretrained is None or pretrained is False or pretrained == "":
         return None
     if pretrained is True:
         pretrained = release_pack_url(scale, seed)
     if not isinstance(pretrained, (str, os.PathLike)):
         raise TypeError(f"PRETRAINED: expected False, True, or a pack's path or URL, got {pretrained!r}")
-    return unpack(pretrained, scale=scale, seed=seed, sha256=sha256)
+    return unpack(pretrained, scale=scale, seed=seed, sha256=sha256, chapter=chapter)
