@@ -359,6 +359,13 @@ def test_a_cached_rollout_is_the_run_itself_and_any_input_changes_its_key(tmp_ca
     with pytest.raises(TypeError, match="MotionModel"):
         rt.rollout(object(), rt.standing_state(), roots, goals, 6, torch.Generator())
 
+    class MoreGoals(rt.GoalSequence):  # a goal type of its own holds state the key cannot see: never cached
+        pass
+
+    more = MoreGoals(goals.positions, goals.directions, goals.actions, goals.radii, goals.counts)
+    rt.rollout(model, rt.standing_state(), roots, more, 6, torch.Generator().manual_seed(0))
+    assert len(list(tmp_cache.iterdir())) == 1 + 4
+
 
 def test_correction_pulls_the_future_onto_the_goal_only_near_it():
     clip, _ = md.make_clip("sit", 3)

@@ -329,7 +329,7 @@ def run_room_tasks(model: MotionModel, tasks: Sequence[RoomTask], seconds: float
                 "states": r.rollout.states, "roots": r.rollout.roots, "goal_index": r.rollout.goal_index,
                 "actions": r.rollout.actions, "waypoints": r.waypoints}
 
-    out = load_or_build("samp_room_runs", key, build, code=(type(model),))  # the model's code counts too
+    out = load_or_build("samp_room_runs", key, build)
     return RoomRunResults(out["execution_time"], out["position_error"], out["rotation_error"], out["reached"],
                           out["penetration"], Rollout(out["states"], out["roots"], out["goal_index"], out["actions"]),
                           list(out["waypoints"]), float(reach_radius))

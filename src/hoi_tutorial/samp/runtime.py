@@ -20,6 +20,7 @@ Everything is batched over ``B`` characters, each with its own goals and object.
 from __future__ import annotations
 
 import hashlib
+import inspect
 import pickle
 from dataclasses import dataclass
 from typing import Optional
@@ -229,15 +230,21 @@ def object_digest(obj) -> str:
 
 
 def model_digest(model: MotionModel) -> str:
-    """The model as a rollout runs it: its class, its plain attributes (``latent``, ``environment_sensor``,
-    ``training``, …) and every parameter and buffer, bit for bit."""
+    """The model as a rollout runs it: its class (name and source text), its plain attributes (``latent``,
+    ``environment_sensor``, ``training``, …) and every parameter and buffer, bit for bit. The library's models
+    live in ``samp.core``, whose code every key of a run holds already (the cache follows imports); the class's
+    source counts for a model class of one's own."""
     if not isinstance(model, MotionModel):
         raise TypeError(f"model: expected a samp.core.MotionModel, got {type(model).__name__}")
     plain = sorted((name, value) for name, value in vars(model).items()
                    if not name.startswith("_") and isinstance(value, (bool, int, float, str)))
+    try:
+        source = inspect.getsource(type(model))
+    except (OSError, TypeError):  # defined where no source is kept (an interactive session)
+        source = None
     weights = model.state_dict()
-    return content_digest(f"{type(model).__module__}.{type(model).__qualname__}", repr(plain),
-                   *[item for name in sorted(weights) for item in (name, weights[name])])
+    return content_digest(f"{type(model).__module__}.{type(model).__qualname__}", source, repr(plain),
+                          *[item for name in sorted(weights) for item in (name, weights[name])])
 
 
 def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, goals: GoalSequence,
@@ -248,7 +255,7 @@ def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, 
 
     Generated motion goes through the artifact cache like a trained model: the key is everything the
     run depends on, bit for bit (the model's class, weights and settings, the start, the goals, the
-    object cells, the generator's state, the arguments; the code of this module and of the model's),
+    object cells, the generator's state, the arguments; the code of this module and what it imports),
     so a cached run is the run this call would make. The generator is left where the run left it.
 
     Args:
@@ -265,7 +272,8 @@ def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, 
         latent_scale: σ of the latent draws.
         goal_correction: near the goal, blend the future trajectory towards its goal-frame
             prediction (:func:`correct_towards_goal`, SAMP's public run-time code).
-        cache: ``False`` runs without the cache (and stores nothing).
+        cache: ``False`` runs without the cache (and stores nothing); so does a run whose goals are a subclass of
+            :class:`GoalSequence` (e.g. ``pipeline.PathGoals``, whose rooms the key would not see).
     Returns:
         :class:`Rollout`.
     """
@@ -277,7 +285,7 @@ def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, 
         raise ValueError(f"generator: expected a CPU torch.Generator, got one on {generator.device}")
     args = (model, start, start_roots, goals, n_frames, generator, voxel_centres, voxel_occupancy,
             float(latent_scale), bool(goal_correction))
-    if not cache:
+    if not cache or type(goals) is not GoalSequence:  # a subclass (pipeline.PathGoals) holds more than the key sees
         return _rollout(*args)
     key = {"model": model_digest(model), "device": str(model.x_mean.device),
            "inputs": content_digest(as_tensor(start, "start"), as_tensor(start_roots, "start_roots"), goals.positions,
@@ -292,8 +300,7 @@ def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, 
         return {"states": out.states, "roots": out.roots, "goal_index": out.goal_index, "actions": out.actions,
                 "generator_state": generator.get_state()}
 
-    # the model's own code counts as well as this module's (its class may live outside samp.core)
-    artifact = load_or_build("samp_rollout", key, build, code=(type(model),), verbose=False)
+    artifact = load_or_build("samp_rollout", key, build, verbose=False)
     generator.set_state(artifact["generator_state"])
     return Rollout(artifact["states"], artifact["roots"], artifact["goal_index"], artifact["actions"])
 
