@@ -358,7 +358,7 @@ def _run_room_tasks(model, tasks, seconds, seed, planning, latent_scale, settle,
         goals = GoalSequence.from_lists([g for g, _ in plans])
     centres, occupancy = room_voxel_cells(tasks, every_object=model.environment_sensor)
     roots = torch.as_tensor(np.stack([t.start_root for t in tasks]), dtype=torch.float32)
-    # the room run is cached whole (below), its motion with it
+    # run_room_tasks caches the room run whole, its motion with it
     out = rollout(model, standing_state(), roots, goals, n_frames, torch.Generator().manual_seed(int(seed)),
                   centres, occupancy, latent_scale=latent_scale, cache=False)
     times, pe, re, reached = measure_goal_runs(out, ["sit"] * len(tasks), [t.goal_position for t in tasks],

@@ -287,13 +287,13 @@ def rollout(model: MotionModel, start: torch.Tensor, start_roots: torch.Tensor, 
             float(latent_scale), bool(goal_correction))
     if not cache or type(goals) is not GoalSequence:  # a subclass (pipeline.PathGoals) holds more than the key sees
         return _rollout(*args)
-    key = {"model": model_digest(model), "device": str(model.x_mean.device),
-           "inputs": content_digest(as_tensor(start, "start"), as_tensor(start_roots, "start_roots"), goals.positions,
-                             goals.directions, goals.actions, goals.radii, goals.counts,
-                             None if voxel_centres is None else as_tensor(voxel_centres, "voxel_centres"),
-                             None if voxel_occupancy is None else as_tensor(voxel_occupancy, "voxel_occupancy")),
-           "generator": content_digest(generator.get_state()), "n_frames": n_frames, "latent_scale": float(latent_scale),
-           "goal_correction": bool(goal_correction)}
+    inputs = (as_tensor(start, "start"), as_tensor(start_roots, "start_roots"), goals.positions, goals.directions,
+              goals.actions, goals.radii, goals.counts,
+              None if voxel_centres is None else as_tensor(voxel_centres, "voxel_centres"),
+              None if voxel_occupancy is None else as_tensor(voxel_occupancy, "voxel_occupancy"))
+    key = {"model": model_digest(model), "device": str(model.x_mean.device), "inputs": content_digest(*inputs),
+           "generator": content_digest(generator.get_state()), "n_frames": n_frames,
+           "latent_scale": float(latent_scale), "goal_correction": bool(goal_correction)}
 
     def build():
         out = _rollout(*args)
