@@ -165,6 +165,27 @@ def test_a_cached_room_run_is_the_run_itself_and_a_moved_object_is_another_room(
     assert len(list(tmp_cache.iterdir())) == 2
 
 
+def test_rooms_and_room_tasks_come_back_from_the_cache_as_made(tmp_cache, monkeypatch):
+    from hoi_tutorial.infra import cache_only
+
+    rooms = pl.cluttered_rooms(2, seed=3)
+    made = [make_room(3000 + k, n_clutter=8, target_category=pl.ROOM_TARGETS[k]) for k in range(2)]
+    assert [pl._room_digest(r) for r in rooms] == [pl._room_digest(r) for r in made]  # every object, bit for bit
+    for room, original in zip(rooms, made):
+        np.testing.assert_array_equal(room.clearance, original.clearance)
+    direct = [pl._task_digest(t) for t in pl.room_tasks(made, seed=0, cache=False)]
+    assert [pl._task_digest(t) for t in pl.room_tasks(rooms, seed=0)] == direct
+    with monkeypatch.context() as patch, cache_only():
+        patch.setattr(pl, "make_room", lambda *a, **k: pytest.fail("a cached room was made again"))
+        patch.setattr(pl, "_room_tasks", lambda *a, **k: pytest.fail("cached tasks were drawn again"))
+        again = pl.room_tasks(pl.cluttered_rooms(2, seed=3), seed=0)
+    assert [pl._task_digest(t) for t in again] == direct and [t.room_index for t in again] == [0, 1]
+    # another seed draws other starts, not the cached ones
+    assert [pl._task_digest(t) for t in pl.room_tasks(rooms, seed=1)] != direct
+    with pytest.raises(ValueError, match="n_rooms"):
+        pl.cluttered_rooms(0)
+
+
 def test_room_voxel_cells_give_the_target_or_every_object(tasks):
     centres, occupancy = pl.room_voxel_cells(tasks)
     assert centres.shape == (2, 512, 3) and occupancy.shape == (2, 512)

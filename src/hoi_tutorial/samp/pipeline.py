@@ -37,7 +37,9 @@ import numpy as np
 import torch
 
 from .._validate import check_choice, check_shape
+from ..world.objects import object_from_description
 from ..world.primitives import union_sdf
+from ..world.scenes import Room, make_room
 from .core import GoalNetCVAE, MotionModel
 from .evaluation import MeasuredRuns, measure_goal_runs, voxel_cells
 from .goalnet import sample_goals
@@ -45,7 +47,7 @@ from .planning import check_room_point, plan_path, reaches, simplify_waypoints, 
 from ..infra import load_or_build
 from .runtime import GoalSequence, Rollout, content_digest, model_digest, object_digest, rollout, standing_state
 
-__all__ = ["RoomTask", "room_tasks", "SWITCHES", "WAYPOINT_RADIUS", "goals_along_path", "PathGoals", "room_voxel_cells", "RoomRunResults",
+__all__ = ["RoomTask", "ROOM_TARGETS", "cluttered_rooms", "room_tasks", "SWITCHES", "WAYPOINT_RADIUS", "goals_along_path", "PathGoals", "room_voxel_cells", "RoomRunResults",
            "penetrating_frames", "run_room_tasks"]
 
 # How the sitting goal takes over from the walk goals (see the module docstring).
@@ -54,6 +56,8 @@ SWITCHES = ("waypoints", "path")
 # standing on its last waypoint, so a walk goal ahead also reads "stop there"; with 0.5 m, runs that stopped a little
 # short of a waypoint stood there until the time limit (chapter 14 compares the two).
 WAYPOINT_RADIUS = 1.0
+# The targets of :func:`cluttered_rooms`, in turn: SAMP's sittable categories of the toy world.
+ROOM_TARGETS = ("chair", "armchair", "sofa", "stool")
 
 
 @dataclass
@@ -74,9 +78,38 @@ class RoomTask:
     room_index: int = 0
 
 
+def cluttered_rooms(n_rooms: int, seed: int = 0, targets: Sequence[str] = ROOM_TARGETS, n_clutter: int = 8) -> list:
+    """``n_rooms`` cluttered rooms: room ``k`` is ``world.scenes.make_room(1000 * seed + k, n_clutter=n_clutter,
+    target_category=targets[k % len(targets)])``. Made once, then from the cache: each room's layout (its size
+    and every object's category, sizes and pose) rebuilt through ``world.objects.object_from_description`` and
+    ``world.scenes.Room``, the same rooms whether just made or loaded.
+
+    Returns:
+        a list of ``world.scenes.Room``.
+    """
+    if isinstance(n_rooms, bool) or not isinstance(n_rooms, int) or n_rooms < 1:
+        raise ValueError(f"n_rooms: expected a positive int, got {n_rooms!r}")
+    targets = tuple(targets)
+    if not targets:
+        raise ValueError("targets: expected at least one sittable category")
+
+    def build():
+        rooms = [make_room(1000 * int(seed) + k, n_clutter=int(n_clutter), target_category=targets[k % len(targets)])
+                 for k in range(n_rooms)]
+        return [{"size": np.asarray(r.size, dtype=np.float64), "target_index": int(r.target_index),
+                 "cell_size": float(r.cell_size), "body_radius": float(r.body_radius),
+                 "objects": [{"category": o.category, "params": dict(o.params), "pose": np.asarray(o.pose)}
+                             for o in r.objects]} for r in rooms]
+
+    key = {"n_rooms": n_rooms, "seed": int(seed), "targets": list(targets), "n_clutter": int(n_clutter)}
+    layouts = load_or_build("samp_rooms", key, build)
+    return [Room(layout["size"], [object_from_description(o) for o in layout["objects"]], layout["target_index"],
+                 layout["cell_size"], layout["body_radius"]) for layout in layouts]
+
+
 def room_tasks(rooms: Sequence, seed: int = 0, min_distance: float = 2.0, goalnet: Optional[GoalNetCVAE] = None,
                n_proposals: int = 32, facing_spread: float = math.radians(30.0),
-               skip_missing: bool = False) -> list[RoomTask]:
+               skip_missing: bool = False, cache: bool = True) -> list[RoomTask]:
     """One task per room: a sitting goal on the target that has a standing spot in front of it, and
     a start drawn among the room's free cells that reach it, at least ``min_distance`` metres from the
     goal, facing the goal within ``facing_spread`` radians (as the toy captures start, and as
@@ -93,10 +126,35 @@ def room_tasks(rooms: Sequence, seed: int = 0, min_distance: float = 2.0, goalne
         facing_spread: the start heading's largest angle from the direction to the goal (radians).
         skip_missing: leave out a room with no goal whose standing spot a start reaches (the task's ``room_index``
             says which room each task is in) instead of raising.
+        cache: draw the tasks once, then load their goals and starts from the cache (keyed by every room, bit
+            for bit, GoalNet's weights and the arguments).
     Raises:
         ValueError: a room whose target has no sitting goal with a standing spot (unless
             ``skip_missing``), or no start far enough from it.
     """
+    args = {"seed": int(seed), "min_distance": float(min_distance), "n_proposals": int(n_proposals),
+            "facing_spread": float(facing_spread), "skip_missing": bool(skip_missing)}
+    rooms = list(rooms)
+    if not cache:
+        return _room_tasks(rooms, goalnet=goalnet, **args)
+
+    def build():
+        tasks = _room_tasks(rooms, goalnet=goalnet, **args)
+        return {"room_index": np.array([t.room_index for t in tasks], dtype=np.int64),
+                "goal_position": np.array([t.goal_position for t in tasks]).reshape(-1, 3),
+                "goal_direction": np.array([t.goal_direction for t in tasks]).reshape(-1, 3),
+                "start_root": np.array([t.start_root for t in tasks]).reshape(-1, 3)}
+
+    goalnet_digest = None if goalnet is None else content_digest(
+        type(goalnet).__qualname__, *[item for name, value in sorted(goalnet.state_dict().items())
+                                      for item in (name, value)])
+    key = {"rooms": [_room_digest(room) for room in rooms], "goalnet": goalnet_digest, **args}
+    out = load_or_build("samp_room_tasks", key, build)
+    return [RoomTask(rooms[k], position, direction, start, k) for k, position, direction, start
+            in zip(out["room_index"].tolist(), out["goal_position"], out["goal_direction"], out["start_root"])]
+
+
+def _room_tasks(rooms, seed, min_distance, goalnet, n_proposals, facing_spread, skip_missing) -> list[RoomTask]:
     tasks = []
     for k, room in enumerate(rooms):
         rng = np.random.default_rng([int(seed), 4411, k])
@@ -335,12 +393,15 @@ def run_room_tasks(model: MotionModel, tasks: Sequence[RoomTask], seconds: float
                           list(out["waypoints"]), float(reach_radius))
 
 
-def _task_digest(task: RoomTask) -> str:
-    """What a room task is, bit for bit: its room (size, grid, objects) and its start and goal."""
-    room = task.room
+def _room_digest(room) -> str:
+    """What a room is, bit for bit: its size, grid and objects."""
     return content_digest(np.asarray(room.size, dtype=np.float64), int(room.target_index), float(room.cell_size),
-                          float(room.body_radius), *[object_digest(obj) for obj in room.objects],
-                          np.asarray(task.goal_position, dtype=np.float64),
+                          float(room.body_radius), *[object_digest(obj) for obj in room.objects])
+
+
+def _task_digest(task: RoomTask) -> str:
+    """What a room task is, bit for bit: its room and its start and goal."""
+    return content_digest(_room_digest(task.room), np.asarray(task.goal_position, dtype=np.float64),
                           np.asarray(task.goal_direction, dtype=np.float64),
                           np.asarray(task.start_root, dtype=np.float64))
 

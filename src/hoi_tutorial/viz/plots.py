@@ -396,6 +396,14 @@ def plot_object_footprint(obj, ax=None, view: str = "top", color=OBJECT_COLOR, l
     vertices, faces = _object_mesh(obj)
     ax = ax if ax is not None else plt.subplots(figsize=(4, 4))[1]
     tris = project(vertices, view)[faces]
+    # Triangles seen edge-on (a box's walls from above) fill nothing. Of a closed, consistently wound surface (every
+    # toy object's), those turned one way in the view (positive area) cover its whole projection on their own.
+    edge_a, edge_b = tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
+    area = edge_a[:, 0] * edge_b[:, 1] - edge_a[:, 1] * edge_b[:, 0]
+    mesh = getattr(obj, "mesh", obj)
+    closed = bool(getattr(mesh, "is_watertight", False) and getattr(mesh, "is_winding_consistent", False))
+    drawn = area > 1e-12 if closed else np.abs(area) > 1e-12
+    tris = tris[drawn] if drawn.any() else tris
     # Edges in the fill colour close the hairline gaps antialiasing leaves between triangles.
     rgba = to_rgba(color, alpha)
     coll = PolyCollection(tris, facecolors=rgba, edgecolors=rgba, linewidths=0.4, zorder=zorder, label=label)
