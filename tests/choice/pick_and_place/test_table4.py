@@ -130,3 +130,19 @@ def test_straight_approach_keeps_the_ends_and_is_straight():
     assert torch.equal(straight.positions[0, :, 3], positions[0, :, 3])
     assert torch.equal(straight.positions[:, 7:], positions[:, 7:])
     assert torch.equal(straight.rotations, rotations)
+
+
+def test_the_goal_of_a_table4_scene_comes_back_from_the_cache_as_run(tmp_cache):
+    from hoi_tutorial.infra import load_or_build
+
+    rng = np.random.default_rng(0)
+    goal = KeyJointGoal(torch.as_tensor(rng.normal(size=(3, 13, 4, 3)), dtype=torch.float32),
+                        torch.eye(3).expand(3, 13, 4, 3, 3).clone(), torch.as_tensor(rng.normal(size=(3, 4, 3))),
+                        torch.tensor([0, 1, 1]))
+    table = load_or_build("test_table4_goal", {}, lambda: {"anchors": np.arange(3), "goal": goal._asdict()})
+    one = table4.scene_goal(table, 1)
+    for name, value in one._asdict().items():
+        assert torch.equal(value, getattr(goal, name)[1:2]), name
+    for bad in (3, -1, True, 1.0):
+        with pytest.raises(ValueError, match="scene"):
+            table4.scene_goal(table, bad)

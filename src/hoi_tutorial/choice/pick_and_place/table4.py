@@ -67,7 +67,8 @@ from .goal_library import GoalLibrary
 from .hand_paths import ApproachPlanner, trained_approach_planner
 
 __all__ = ["TABLE4_ROWS", "ReachScene", "reach_scene", "KeyframeWindow", "reach_library", "MatchedGoals",
-           "matched_goals", "reach_goals", "planned_approach_goal", "straight_approach_goal", "table4_runs"]
+           "matched_goals", "reach_goals", "planned_approach_goal", "straight_approach_goal", "table4_runs",
+           "scene_goal"]
 
 TABLE4_ROWS = ("w/ KF + cuRobo", "w/o goal phase", "w/ matched goal", "w/ predicted goal", "w/ KF goal")
 _ROW_VARIANT = {"w/ KF + cuRobo": "kalman", "w/o goal phase": "none", "w/ matched goal": "matched",
@@ -271,6 +272,15 @@ def straight_approach_goal(goal, hand):
     return goal._replace(positions=positions)
 
 
+def scene_goal(table: dict, scene: int) -> runtime.KeyJointGoal:
+    """The goal :func:`table4_runs` gave its held-out scene ``scene`` (the keyframe matched by §6.1, the working
+    wrist's approach planned by §4), as a batch of one: what the Table 4 rows (but the cuRobo one) ran toward."""
+    n = len(table["anchors"])
+    if isinstance(scene, bool) or not isinstance(scene, (int, np.integer)) or not 0 <= scene < n:
+        raise ValueError(f"scene: expected an index into the {n} scenes, got {scene!r}")
+    return runtime.KeyJointGoal(**{name: value[scene:scene + 1] for name, value in table["goal"].items()})
+
+
 class _Joints:
     """A bare ``(joints, fps)`` motion for ``controller.measures.motion_measures``."""
 
@@ -302,6 +312,7 @@ def table4_runs(controller_config: network.ControllerConfig, *, clips: int = 12,
         ``{"rows": {row: {"Unsmth.", "Slid.", "FD", "EE RMSC", "planted clips", "per clip" {measure: (clips,)},
         "reach" (clips,), "joints" [(T_i, 22, 3)]}}, "hands" (clips,), "anchors" (clips,), "matched rows",
         "matched seeds", "match distances", "test seeds" (clips,), "goal phase" (clips, C, 3) the matched one,
+        "goal" the rows' planned goal (``controller.runtime.KeyJointGoal``'s fields; :func:`scene_goal`),
         "amplitude max", "planned" (clips,) bool (the planner found a path), "planning seconds", "seconds" (per
         row, the rollout's wall time), "steps"}``.
     """
@@ -366,6 +377,7 @@ def table4_runs(controller_config: network.ControllerConfig, *, clips: int = 12,
         return {"rows": rows, "hands": hands, "anchors": anchors, "matched rows": matched.rows,
                 "matched seeds": matched.seeds, "match distances": matched.distances,
                 "test seeds": np.array([int(c.meta["seed"]) for c in test]), "goal phase": goal.phase.double().numpy(),
+                "goal": goal._asdict(),
                 "amplitude max": float(model.phase_amplitude_max), "planned": np.array([p is not None for p in plans]),
                 "planning seconds": planning_seconds, "seconds": seconds, "steps": frames}
 
