@@ -528,6 +528,16 @@ def test_methods_are_compared_over_the_runs_both_performed():
         ev.paired_over_acted(a, b, "speed")
     with pytest.raises(ValueError, match="same tasks"):
         ev.paired_over_acted(a, results([1, 1], [1, 1]), "position_error")
+    # pooled over two sets of tasks: each run paired with its own, the runs of both sets together
+    c = results([1, 1, 1], [20, 21, 22])
+    d = results([1, inf, 1], [10, inf, 12])
+    pooled = ev.paired_over_acted([a, c], [b, d], "position_error", seed=0)
+    assert pooled.n == 6 and pooled.estimate == pytest.approx((-70 + 10 + 10) / 6)
+    assert ev.paired_over_acted([a], [b], "position_error", seed=0).estimate == interval.estimate
+    with pytest.raises(ValueError, match="equally long"):
+        ev.paired_over_acted([a, c], [b], "position_error")
+    with pytest.raises(ValueError, match="equally long"):
+        ev.paired_over_acted([a], b, "position_error")
 
 
 def test_onset_spread_aligns_runs_on_the_action_and_is_zero_for_identical_runs():

@@ -124,19 +124,31 @@ def precision_summary(execution_time, position_error, rotation_error, reached) -
             "PE_reached": mean(pe, reached), "RE_reached": mean(re, reached)}
 
 
-def paired_over_acted(a: "GoalRunResults", b: "GoalRunResults", measure: str, **kwargs):
+def paired_over_acted(a, b, measure: str, **kwargs):
     """``a`` minus ``b`` in ``measure`` (``"position_error"``, ``"rotation_error"`` or ``"execution_time"``),
     paired run by run over the runs of the same tasks where both performed the action: an
     :class:`~hoi_tutorial.intervals.Interval` (paired bootstrap; ``kwargs`` go to
-    ``intervals.paired_difference``), or None when fewer than two runs acted in both."""
+    ``intervals.paired_difference``), or None when fewer than two runs acted in both.
+
+    ``a`` and ``b`` are :class:`GoalRunResults` (or room runs), or equally long sequences of them, one pair per set
+    of tasks (the sit tasks and the lie tasks, say): the pairs are then pooled, every run paired with its own."""
     check_choice(measure, ("position_error", "rotation_error", "execution_time"), "measure")
-    if len(a.execution_time) != len(b.execution_time):
-        raise ValueError(f"a, b: expected runs of the same tasks, got {len(a.execution_time)} and {len(b.execution_time)}")
-    both = np.isfinite(a.execution_time) & np.isfinite(b.execution_time)
-    if both.sum() < 2:
+    pooled = isinstance(a, (list, tuple))
+    if pooled != isinstance(b, (list, tuple)) or (pooled and (len(a) != len(b) or not a)):
+        raise ValueError("a, b: expected two results, or two equally long sequences of them")
+    pairs = list(zip(a, b)) if pooled else [(a, b)]
+    ours, theirs = [], []
+    for x, y in pairs:
+        if len(x.execution_time) != len(y.execution_time):
+            raise ValueError(f"a, b: expected runs of the same tasks, got {len(x.execution_time)} and "
+                             f"{len(y.execution_time)}")
+        both = np.isfinite(x.execution_time) & np.isfinite(y.execution_time)
+        ours.append(np.asarray(getattr(x, measure))[both])
+        theirs.append(np.asarray(getattr(y, measure))[both])
+    ours, theirs = np.concatenate(ours), np.concatenate(theirs)
+    if len(ours) < 2:
         return None
-    return intervals.paired_difference(np.asarray(getattr(a, measure))[both], np.asarray(getattr(b, measure))[both],
-                                       **kwargs)
+    return intervals.paired_difference(ours, theirs, **kwargs)
 
 
 class MeasuredRuns:
