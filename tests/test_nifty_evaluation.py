@@ -523,3 +523,14 @@ def test_chosen_alpha_is_the_lowest_pooled_median_skeleton_distance():
     assert evaluation.chosen_alpha([sweep({3.0: [1.0, 1.0], 30.0: [1.0, 1.0]})]) == 3.0  # a tie: the smaller α
     with pytest.raises(ValueError, match="same alphas"):
         evaluation.chosen_alpha([sit, sweep({10.0: [1.0]})])
+
+
+def test_the_start_distance_read_from_the_root_is_final_pelvis_distance_bit_for_bit():
+    # scene_distance_range reads each sequence's start without forward kinematics: joint 0, the pelvis, sits at
+    # root_position; the same float as final_pelvis_distance's, whatever the dtypes
+    obj = make_object("chair", seed=3).placed(0.4, -0.2, 0.7)
+    for kind, seed in (("walk", 1), ("sit", 2), ("idle", 5)):
+        clip = generate_clip(kind, seed=seed) if kind != "sit" else generate_clip(kind, seed=seed, obj=obj)
+        for motion in (clip, Motion(clip.local_rotations.float(), clip.root_position.double(), clip.betas),
+                       Motion(clip.local_rotations.double(), clip.root_position.float(), clip.betas)):
+            assert scoring._start_distance(motion, obj) == final_pelvis_distance(motion, obj)[1]
