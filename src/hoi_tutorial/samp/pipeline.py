@@ -127,7 +127,7 @@ def room_tasks(rooms: Sequence, seed: int = 0, min_distance: float = 2.0, goalne
         skip_missing: leave out a room with no goal whose standing spot a start reaches (the task's ``room_index``
             says which room each task is in) instead of raising.
         cache: draw the tasks once, then load their goals and starts from the cache (keyed by every room, bit
-            for bit, GoalNet's weights and the arguments).
+            for bit, GoalNet's weights and device, and the arguments).
     Raises:
         ValueError: a room whose target has no sitting goal with a standing spot (unless
             ``skip_missing``), or no start far enough from it.
@@ -146,8 +146,8 @@ def room_tasks(rooms: Sequence, seed: int = 0, min_distance: float = 2.0, goalne
                 "start_root": np.array([t.start_root for t in tasks]).reshape(-1, 3)}
 
     goalnet_digest = None if goalnet is None else content_digest(
-        type(goalnet).__qualname__, *[item for name, value in sorted(goalnet.state_dict().items())
-                                      for item in (name, value)])
+        type(goalnet).__qualname__, str(next(goalnet.parameters()).device),  # another device's kernels draw otherwise
+        *[item for name, value in sorted(goalnet.state_dict().items()) for item in (name, value)])
     key = {"rooms": [_room_digest(room) for room in rooms], "goalnet": goalnet_digest, **args}
     out = load_or_build("samp_room_tasks", key, build)
     return [RoomTask(rooms[k], position, direction, start, k) for k, position, direction, start
