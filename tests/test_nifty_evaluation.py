@@ -526,11 +526,14 @@ def test_chosen_alpha_is_the_lowest_pooled_median_skeleton_distance():
 
 
 def test_the_start_distance_read_from_the_root_is_final_pelvis_distance_bit_for_bit():
-    # scene_distance_range reads each sequence's start without forward kinematics: joint 0, the pelvis, sits at
-    # root_position; the same float as final_pelvis_distance's, whatever the dtypes
+    # final_pelvis_distance reads the pelvis without forward kinematics: joint 0, the pelvis, sits at root_position;
+    # the same floats as the pelvis of the motion's joints, whatever the dtypes
     obj = make_object("chair", seed=3).placed(0.4, -0.2, 0.7)
     for kind, seed in (("walk", 1), ("sit", 2), ("idle", 5)):
         clip = generate_clip(kind, seed=seed) if kind != "sit" else generate_clip(kind, seed=seed, obj=obj)
         for motion in (clip, Motion(clip.local_rotations.float(), clip.root_position.double(), clip.betas),
                        Motion(clip.local_rotations.double(), clip.root_position.float(), clip.betas)):
-            assert scoring._start_distance(motion, obj) == final_pelvis_distance(motion, obj)[1]
+            pelvis = motion.joints[:, JOINT_NAMES.index("pelvis"), :2]
+            centre = torch.as_tensor(obj.pose[:2, 3], dtype=pelvis.dtype)
+            assert final_pelvis_distance(motion, obj) == (float((pelvis[-1] - centre).norm()),
+                                                          float((pelvis[0] - centre).norm()))

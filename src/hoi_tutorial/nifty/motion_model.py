@@ -56,7 +56,7 @@ from ..world.features import (NIFTY_STATE_SIZE, canonical_transform, motion_from
                               root_frame)
 from ..world.motion import Motion
 from ..world.rotations import rotation_about_z
-from ..world.skeleton import NUM_BETAS, NUM_JOINTS, joint_index
+from ..world.skeleton import NUM_BETAS, NUM_JOINTS
 
 __all__ = [
     "CONDITION_KEYS",
@@ -82,7 +82,6 @@ __all__ = [
 # The raw condition C = {P_o, R_o, b, X_0}, as the model's ``cond`` dict takes it.
 CONDITION_KEYS = ("points", "object_pose", "betas", "start_pose")
 OBJECT_POSE_SIZE = 12  # the top 3×4 of person_canonical_from_object
-_PELVIS = joint_index("pelvis")
 _STD_FLOOR = 1e-2  # features (nearly) constant in the data are scaled by at most 1/_STD_FLOOR
 
 
@@ -667,9 +666,12 @@ def final_pelvis_distance(motion: Motion, obj) -> tuple[float, float]:
     """
     if not isinstance(motion, Motion):
         raise TypeError(f"motion: expected a Motion, got {type(motion).__name__}")
-    centre = torch.as_tensor(np.asarray(obj.pose, dtype=np.float64)[:2, 3], dtype=motion.joints.dtype)
-    pelvis = motion.joints[:, _PELVIS, :2]
-    return float((pelvis[-1] - centre).norm()), float((pelvis[0] - centre).norm())
+    # The pelvis is the skeleton's root: forward kinematics puts it at root_position itself, in the joints' dtype, so
+    # it is read from there without running FK over the motion (the same floats).
+    dtype = torch.promote_types(motion.root_position.dtype, motion.local_rotations.dtype)
+    centre = torch.as_tensor(np.asarray(obj.pose, dtype=np.float64)[:2, 3], dtype=dtype)
+    pelvis = motion.root_position[[0, -1], :2].to(dtype)
+    return float((pelvis[1] - centre).norm()), float((pelvis[0] - centre).norm())
 
 
 def _in_root_frame(joints: torch.Tensor) -> torch.Tensor:

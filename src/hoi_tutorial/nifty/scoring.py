@@ -243,21 +243,11 @@ def test_scenes(anchors: Sequence, n_scenes: int, distance_range: tuple[float, f
     return scenes
 
 def scene_distance_range(dataset, low: float = 5.0, high: float = 95.0) -> tuple[float, float]:
-    """The ``(low, high)`` percentiles of the training sequences' start distances (metres): ``final_pelvis_distance``'s
-    first, read without forward kinematics (the pelvis is the skeleton's root, at the motion's ``root_position``)."""
-    starts = [_start_distance(s.motion, s.obj) for s in dataset.sequences]
+    """The ``(low, high)`` percentiles of the training sequences' start distances (metres)."""
+    starts = [final_pelvis_distance(s.motion, s.obj)[1] for s in dataset.sequences]
     if not starts:
         raise ValueError("dataset: expected at least one training sequence")
     return float(np.percentile(starts, low)), float(np.percentile(starts, high))
-
-def _start_distance(motion: Motion, obj) -> float:
-    """``final_pelvis_distance(motion, obj)[1]``, the same float, from the root: forward kinematics puts joint 0 at
-    ``root_position`` itself, in the dtype the joints come out in (an evaluation asks for every training sequence's)."""
-    dtype = torch.promote_types(motion.root_position.dtype, motion.local_rotations.dtype)
-    centre = torch.as_tensor(np.asarray(obj.pose, dtype=np.float64)[:2, 3], dtype=dtype)
-    return float((motion.root_position[0, :2].to(dtype) - centre).norm())
-
-
 
 def _penetration_per_frame(motion: Motion, object_points: torch.Tensor, frames=None) -> np.ndarray:
     """``(T', P)`` body SDF of every frame at the object points, exact where it is negative (inside the body).

@@ -145,10 +145,9 @@ def room_tasks(rooms: Sequence, seed: int = 0, min_distance: float = 2.0, goalne
                 "goal_direction": np.array([t.goal_direction for t in tasks]).reshape(-1, 3),
                 "start_root": np.array([t.start_root for t in tasks]).reshape(-1, 3)}
 
-    goalnet_digest = None if goalnet is None else content_digest(
-        type(goalnet).__qualname__, str(next(goalnet.parameters()).device),  # another device's kernels draw otherwise
-        *[item for name, value in sorted(goalnet.state_dict().items()) for item in (name, value)])
-    key = {"rooms": [_room_digest(room) for room in rooms], "goalnet": goalnet_digest, **args}
+    # the device too: another device's kernels draw other proposals
+    goalnet_key = None if goalnet is None else [model_digest(goalnet), str(next(goalnet.parameters()).device)]
+    key = {"rooms": [_room_digest(room) for room in rooms], "goalnet": goalnet_key, **args}
     out = load_or_build("samp_room_tasks", key, build)
     return [RoomTask(rooms[k], position, direction, start, k) for k, position, direction, start
             in zip(out["room_index"].tolist(), out["goal_position"], out["goal_direction"], out["start_root"])]

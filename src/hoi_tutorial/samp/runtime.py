@@ -33,7 +33,7 @@ from ..infra import load_or_build, single_threaded
 from ..world import mocap
 from ..world.features import SAMP_ACTIONS, SAMP_SAMPLE_OFFSETS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE, samp_pose_state
 from ..world.skeleton import NUM_JOINTS
-from .core import MotionModel
+from .core import GoalNetCVAE, MotionModel
 from .goal_frame import (CURRENT_SAMPLE, LocalGoal, correct_towards_goal, goal_features, local_goal, recomputed_state,
                          unit, with_goal)
 from .motion_data import apply_root_displacement, as_complex, voxels_in_root_frame
@@ -229,13 +229,13 @@ def object_digest(obj) -> str:
                                         np.asarray(obj.pose, dtype=np.float64)), protocol=4)).hexdigest()
 
 
-def model_digest(model: MotionModel) -> str:
-    """The model as a rollout runs it: its class (name and source text), its plain attributes (``latent``,
+def model_digest(model) -> str:
+    """A ``MotionModel`` as a rollout runs it (or a ``GoalNetCVAE`` as it proposes goals): its class (name and source text), its plain attributes (``latent``,
     ``environment_sensor``, ``training``, …) and every parameter and buffer, bit for bit. The library's models
     live in ``samp.core``, whose code every key of a run holds already (the cache follows imports); the class's
     source counts for a model class of one's own."""
-    if not isinstance(model, MotionModel):
-        raise TypeError(f"model: expected a samp.core.MotionModel, got {type(model).__name__}")
+    if not isinstance(model, (MotionModel, GoalNetCVAE)):
+        raise TypeError(f"model: expected a samp.core.MotionModel or GoalNetCVAE, got {type(model).__name__}")
     plain = sorted((name, value) for name, value in vars(model).items()
                    if not name.startswith("_") and isinstance(value, (bool, int, float, str)))
     try:
