@@ -5,6 +5,8 @@ import dataclasses
 import importlib.util
 import os
 import random
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -77,6 +79,17 @@ def test_seed_everything_repeats_every_global_draw(restore_determinism):
     assert torch.are_deterministic_algorithms_enabled()
     seed_everything(8)
     assert not np.array_equal(np.random.rand(3), first[1])
+
+
+def test_seed_everything_sets_the_kernels_switch_without_loading_the_compiler():
+    # a fresh interpreter: the compiler is loaded nowhere yet, and seed_everything leaves it so; where it is
+    # loaded, torch's own call sets its switch too
+    code = ("import sys, torch; from hoi_tutorial.infra import seed_everything; seed_everything(0); "
+            "a = (torch.are_deterministic_algorithms_enabled(), torch.is_deterministic_algorithms_warn_only_enabled(), "
+            "'torch._inductor.config' in sys.modules); import torch._inductor.config as c; c.deterministic = False; "
+            "seed_everything(0); print(a, c.deterministic)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["(True,", "True,", "False)", "True"]
 
 
 def test_seed_validation(restore_determinism):

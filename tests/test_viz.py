@@ -463,6 +463,25 @@ def test_to_html_embeds_the_frames_to_jshtml_draws(small_motion, chair):
         np.testing.assert_array_equal(a, b)
 
 
+@pytest.mark.parametrize("view", ["3d", "side", "top", "front"])
+def test_still_parts_drawn_once_give_the_pixels_of_whole_frames(small_motion, chair, monkeypatch, view):
+    """to_html draws an animation's axes, ground and still objects once and each frame's moving artists over them
+    (with every still artist a full draw puts above them): the frames are those of drawing every frame whole."""
+    def frames():
+        moving = [lambda f: chair.with_pose(np.diag([1.0, 1.0, 1.0, 1.0]) @ chair.pose)] if view == "3d" else []
+        anim = viz.animate_motion(small_motion, objects=[chair], moving_objects=moving, view=view, stride=1,
+                                  figsize=(3, 3), dpi=40, title="still parts")
+        return _embedded_frames(viz.to_html(anim))
+
+    once = frames()
+    monkeypatch.setattr(viz_animation, "_DRAW_STILL_PARTS_ONCE", False)
+    whole = frames()
+    assert len(once) == len(whole) == 12
+    for a, b in zip(once, whole):
+        np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(once[0], once[-1])  # the body moved
+
+
 def test_moving_object_reuse_matches_redrawing_every_frame(small_motion, chair, monkeypatch):
     """The polygons of a moving object kept from the last frame (same shape and pose) are the ones a fresh
     mesh gives: the frames equal those drawn with the reuse turned off."""

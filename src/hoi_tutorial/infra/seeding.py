@@ -9,11 +9,12 @@ from __future__ import annotations
 import operator
 import os
 import random
+import sys
 
 import numpy as np
 import torch
 
-__all__ = ["seed_everything", "rng", "check_seed"]
+__all__ = ["seed_everything", "deterministic_kernels", "rng", "check_seed"]
 
 # numpy's legacy global seeder accepts only 32-bit seeds.
 _MAX_SEED = 2**32 - 1
@@ -39,6 +40,11 @@ def seed_everything(seed: int) -> torch.Generator:
     deterministic version warns instead of failing). CUDA runs can still differ from CPU runs
     in the last digits. The number of CPU threads is left as it is.
 
+    The switch is torch's own (``torch.use_deterministic_algorithms`` sets it and the compiler's
+    ``torch._inductor.config.deterministic``); where the compiler is not loaded, only the kernels'
+    switch is set: loading the compiler for a flag takes about a second per process, and the library
+    never compiles (:func:`deterministic_kernels`).
+
     Returns:
         a CPU ``torch.Generator`` seeded with ``seed``, to pass to sampling functions.
     """
@@ -48,10 +54,24 @@ def seed_everything(seed: int) -> torch.Generator:
     torch.manual_seed(seed)  # also seeds every CUDA device
     # cuBLAS needs this before its first use to be deterministic; a value set by the user wins.
     os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
-    torch.use_deterministic_algorithms(True, warn_only=True)
+    deterministic_kernels()
     generator = torch.Generator()
     generator.manual_seed(seed)
     return generator
+
+
+def deterministic_kernels() -> None:
+    """``torch.use_deterministic_algorithms(True, warn_only=True)``, without loading torch's compiler for it.
+
+    Where ``torch._inductor`` is already loaded (or torch lacks the kernels' switch), torch's own call
+    sets both switches; otherwise only the kernels' switch is set, which is all eager code reads
+    (``torch.are_deterministic_algorithms_enabled()`` is True either way).
+    """
+    set_kernels = getattr(torch._C, "_set_deterministic_algorithms", None)
+    if "torch._inductor.config" in sys.modules or set_kernels is None:
+        torch.use_deterministic_algorithms(True, warn_only=True)
+    else:
+        set_kernels(True, warn_only=True)
 
 
 def rng(seed) -> np.random.Generator:

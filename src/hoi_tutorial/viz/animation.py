@@ -11,6 +11,7 @@ small: a 5 s clip (75 frames) at the defaults embeds in 1.5–2.5 MB.
 from __future__ import annotations
 
 import base64
+import logging
 import math
 from io import BytesIO
 from pathlib import Path
@@ -304,6 +305,7 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), moving_
     else:
         fig.tight_layout()
     anim = FuncAnimation(fig, update, frames=len(frames), interval=1000.0 * stride / fps, blit=False)
+    anim._hoi_frames = (update, len(frames))  # what to_html draws frame by frame (_still_and_moving)
     return anim
 
 
@@ -337,19 +339,89 @@ class _DrawnFrameWriter(HTMLWriter):
         width, height = canvas.get_width_height(physical=True)
         if pixels.shape[:2] != (height, width):
             return super().grab_frame(**savefig_kwargs)
+        self.add_pixels(pixels)
+
+    def add_pixels(self, pixels: np.ndarray) -> bool:
+        """Embed ``(H, W, 4)`` RGBA pixels as the next frame; False (nothing embedded) past the size limit."""
+        if self._hit_limit:
+            return False
         buffer = BytesIO()
         Image.fromarray(pixels).save(buffer, format="png")
         data = base64.encodebytes(buffer.getvalue()).decode("ascii")
-        if self._total_bytes + len(data) >= self._bytes_limit:
-            return super().grab_frame()  # HTMLWriter warns and drops this frame and the later ones
+        if self._total_bytes + len(data) >= self._bytes_limit:  # as HTMLWriter: warn, drop this frame and the later ones
+            logging.getLogger("matplotlib.animation").warning(
+                "Animation size has reached %s bytes, exceeding the limit of %s. This and further frames will be "
+                "dropped.", self._total_bytes + len(data), self._bytes_limit)
+            self._hit_limit = True
+            return False
         self._total_bytes += len(data)
         self._saved_frames.append(data)
+        return True
+
+
+# to_html draws the still parts of an animate_motion figure once and each frame's moving artists over them; False:
+# every frame drawn whole (the tests compare the two)
+_DRAW_STILL_PARTS_ONCE = True
+
+
+def _sorted_children(ax) -> list:
+    """The artists an axes' draw sorts by zorder, ties in the order they were added (matplotlib's stable sort):
+    its children but its background patch, and in 3D its axes, ticks and panes (drawn first, before them all)."""
+    first = {id(ax.patch)} | ({id(axis) for axis in ax._axis_map.values()} if ax.name == "3d" else set())
+    children = [a for a in ax.get_children() if id(a) not in first]
+    return sorted(children, key=lambda a: a.get_zorder())
+
+
+def _draw_order(fig) -> dict:
+    """``{id(artist): rank}`` in the order a full draw of ``fig`` takes: each axes' sorted children, in the order
+    of the axes, then the figure's own texts (a title over the axes)."""
+    order = [a for ax in fig.axes for a in _sorted_children(ax)] + sorted(fig.texts, key=lambda a: a.get_zorder())
+    return {id(a): rank for rank, a in enumerate(order)}
+
+
+def _drawn_frames(anim: FuncAnimation):
+    """Each frame of an :func:`animate_motion` animation as ``(H, W, 4)`` RGBA pixels of its Agg canvas.
+
+    The still parts (axes, ticks, ground, objects that do not move) are drawn once; each frame restores them and
+    draws the artists the update changes, with every still artist that a full draw puts above them (so the order,
+    and the pixels, are those of drawing each frame whole). Yields the canvas buffer: read it before the next.
+    """
+    update, n_frames = anim._hoi_frames
+    fig = anim._fig
+    canvas = fig.canvas
+    moving = list(update(0))
+    rank = _draw_order(fig)
+    if any(id(a) not in rank for a in moving):
+        raise ValueError("anim: an artist its update returns is neither an axes' child nor a figure text")
+    lowest = min(rank[id(a)] for a in moving)
+    kept = {id(a) for a in moving}
+    still_above = [a for ax in fig.axes for a in _sorted_children(ax)
+                   if id(a) not in kept and a.get_visible() and rank[id(a)] > lowest]
+    redrawn = sorted(moving + still_above, key=lambda a: rank[id(a)])
+    for artist in redrawn:
+        artist.set_animated(True)  # left out of a full draw
+    try:
+        canvas.draw()
+        background = canvas.copy_from_bbox(fig.bbox)
+        for i in range(n_frames):
+            update(i)
+            canvas.restore_region(background)
+            for artist in redrawn:
+                if hasattr(artist, "do_3d_projection"):  # a 3D collection: what Axes3D.draw does before drawing it
+                    artist.do_3d_projection()
+                (artist.axes or fig).draw_artist(artist)
+            yield np.asarray(canvas.buffer_rgba())
+    finally:
+        for artist in redrawn:
+            artist.set_animated(False)
 
 
 def to_html(anim: FuncAnimation, default_mode: str = "loop") -> str:
     """The animation as a self-contained HTML/JavaScript player (what ``FuncAnimation.to_jshtml`` writes).
 
-    Each frame is drawn once (``_DrawnFrameWriter``); ``to_jshtml`` draws it twice.
+    Each frame is drawn once (``_DrawnFrameWriter``); ``to_jshtml`` draws it twice. For an animation of
+    :func:`animate_motion`, the still parts (axes, ticks, ground, objects) are drawn once and each frame draws only
+    what moves (``_drawn_frames``: the same pixels).
 
     Args:
         anim: an animation from :func:`animate_motion`.
@@ -362,7 +434,14 @@ def to_html(anim: FuncAnimation, default_mode: str = "loop") -> str:
     with matplotlib.rc_context({"animation.embed_limit": 50.0}), TemporaryDirectory() as folder:
         path = Path(folder, "animation.html")
         writer = _DrawnFrameWriter(fps=1000.0 / anim._interval, embed_frames=True, default_mode=default_mode)
-        anim.save(str(path), writer=writer)
+        if (_DRAW_STILL_PARTS_ONCE and getattr(anim, "_hoi_frames", None) is not None
+                and isinstance(anim._fig.canvas, FigureCanvasAgg)):
+            with writer.saving(anim._fig, str(path), anim._fig.dpi):
+                for pixels in _drawn_frames(anim):
+                    writer.add_pixels(pixels)
+            anim._draw_was_started = True  # drawn: no "deleted without rendering" warning
+        else:
+            anim.save(str(path), writer=writer)
         return path.read_text()
 
 
