@@ -166,6 +166,8 @@ def foot_track(body: GaitBody, side: str, steps: list[Footstep], times: np.ndarr
     contact = np.zeros(T, dtype=bool)
     fold = np.zeros(T)
 
+    solved = {}  # (step, pitch) -> ankle and rotation: a foot on the ground keeps its pitch for most frames
+
     def stance_pose(step, t):
         pitch = 0.0
         if step.heel_off > 0 and math.isfinite(step.end):
@@ -174,8 +176,11 @@ def foot_track(body: GaitBody, side: str, steps: list[Footstep], times: np.ndarr
             roll_start = max(step.end - heel_off_fraction * duration, 0.0)
             u = np.clip((t - roll_start) / max(step.end - roll_start, 1e-6), 0.0, 1.0)
             pitch = step.heel_off * u**1.5
-        ball = np.array([step.ball[0], step.ball[1], FOOT_JOINT_HEIGHT])
-        a, r = body.ankle_from_ball(side, ball, step.yaw, pitch)
+        key = (id(step), float(pitch).hex())
+        if key not in solved:  # the same step and pitch give the same pose: solved once (read-only below)
+            ball = np.array([step.ball[0], step.ball[1], FOOT_JOINT_HEIGHT])
+            solved[key] = body.ankle_from_ball(side, ball, step.yaw, pitch)
+        a, r = solved[key]
         return a, r, pitch
 
     for f, t in enumerate(times):
