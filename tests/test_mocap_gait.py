@@ -364,3 +364,28 @@ def test_generate_dataset_is_deterministic_and_seeds_each_clip_independently():
     assert torch.equal(c[0].local_rotations, a[2].local_rotations)
     with pytest.raises(ValueError, match="kinds"):
         mocap.generate_dataset(1, seed=0, kinds=["moonwalk"])
+
+
+def test_a_motion_comes_back_from_the_cache_field_by_field(tmp_cache):
+    from hoi_tutorial.infra import load_or_build
+    from hoi_tutorial.world.motion import motion_from_payload, motion_payload
+
+    clip = mocap.generate_clip("walk", seed=3)  # float32, action and contact labels, a nested meta
+    for k, motion in enumerate((clip, clip.transformed(0.4, (1.0, 2.0, 0.0)).slice(3, 9),
+                                Motion(clip.local_rotations.double(), clip.root_position.double(), clip.betas.double()))):
+        def payload():
+            return motion_payload(motion)
+
+        load_or_build("motion_round_trip", {"k": k}, payload)  # built and stored
+        back = motion_from_payload(load_or_build("motion_round_trip", {"k": k}, payload))  # loaded
+        for name in ("local_rotations", "root_position", "betas", "joints"):
+            a, b = getattr(motion, name), getattr(back, name)
+            assert a.dtype == b.dtype and torch.equal(a, b)
+        for name in ("actions", "contacts"):
+            a, b = getattr(motion, name), getattr(back, name)
+            assert (a is None and b is None) or np.array_equal(a, b)
+        assert back.fps == motion.fps and repr(back.meta) == repr(motion.meta)
+    with pytest.raises(TypeError, match="Motion"):
+        motion_payload(clip.joints)
+    with pytest.raises(ValueError, match="motion_payload"):
+        motion_from_payload({"local_rotations": clip.local_rotations})

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 import torch
 
+from hoi_tutorial.infra import clear_cache
 from hoi_tutorial.nifty import evaluation, scoring, paper_numbers
 from hoi_tutorial.nifty.anchors import Anchor
 from hoi_tutorial.nifty.data import SyntheticDataset, synthetic_data_config
@@ -46,7 +47,7 @@ def sit_case():
 # --------------------------------------------------------------------------- test scenes
 
 
-def test_scenes_cycle_anchors_and_respect_the_distance_range(sit_case):
+def test_scenes_cycle_anchors_and_respect_the_distance_range(sit_case, tmp_cache):
     _, anchors = sit_case
     scenes = scoring.test_scenes(anchors, 5, (1.0, 1.5), seed=3)
     assert [s.anchor for s in scenes] == [0, 1, 0, 1, 0]
@@ -73,10 +74,11 @@ def test_scenes_can_use_the_anchors_own_objects(sit_case):
     assert all(scene.obj is anchors[scene.anchor].obj for scene in scenes)
 
 
-def test_scenes_are_deterministic_for_a_seed(sit_case):
+def test_scenes_are_deterministic_for_a_seed(sit_case, tmp_cache):
     _, anchors = sit_case
     a = scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=7)
-    scoring._SCENES_MADE.clear()  # made again, not handed out from the scenes made before
+    scoring._SCENES_MADE.clear()  # made again, neither handed out from the scenes made before nor loaded
+    clear_cache("nifty_test_scenes")
     b = scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=7)
     c = scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=8)
     for x, y in zip(a, b):
@@ -84,7 +86,7 @@ def test_scenes_are_deterministic_for_a_seed(sit_case):
     assert not torch.equal(a[0].start.joints, c[0].start.joints)
 
 
-def test_scenes_made_before_from_the_same_anchors_are_handed_out_as_copies(sit_case):
+def test_scenes_made_before_from_the_same_anchors_are_handed_out_as_copies(sit_case, tmp_cache):
     _, anchors = sit_case
     scoring._SCENES_MADE.clear()
     first = scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=5)
@@ -101,6 +103,34 @@ def test_scenes_made_before_from_the_same_anchors_are_handed_out_as_copies(sit_c
     elsewhere = scoring.test_scenes(moved, 3, (1.0, 2.0), seed=5)
     assert not np.array_equal(elsewhere[0].obj.pose, first[0].obj.pose)  # another placement: other scenes
     assert scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=6)[0].distance != first[0].distance
+
+
+def _same_scenes(xs, ys):
+    points = np.random.default_rng(0).uniform(-1.0, 1.0, (64, 3))
+    assert len(xs) == len(ys)
+    for x, y in zip(xs, ys):
+        assert (x.anchor, x.distance, x.obj.category, x.obj.params) == (y.anchor, y.distance, y.obj.category, y.obj.params)
+        np.testing.assert_array_equal(x.obj.pose, y.obj.pose)
+        np.testing.assert_array_equal(x.obj.sdf(points), y.obj.sdf(points))
+        for name in ("local_rotations", "root_position", "betas", "joints"):
+            a, b = getattr(x.start, name), getattr(y.start, name)
+            assert a.dtype == b.dtype and torch.equal(a, b)
+        np.testing.assert_array_equal(x.start.actions, y.start.actions)
+        np.testing.assert_array_equal(x.start.contacts, y.start.contacts)
+        assert x.start.fps == y.start.fps and repr(x.start.meta) == repr(y.start.meta)
+
+
+def test_held_out_scenes_come_back_from_the_cache_as_made(sit_case, tmp_cache, capsys):
+    _, anchors = sit_case
+    made = scoring._make_scenes(anchors, 4, 1.0, 2.0, 9, ("idle", "walk"), True)
+    scoring._SCENES_MADE.clear()
+    built = scoring.test_scenes(anchors, 4, (1.0, 2.0), seed=9)
+    scoring._SCENES_MADE.clear()
+    capsys.readouterr()
+    loaded = scoring.test_scenes(anchors, 4, (1.0, 2.0), seed=9)
+    assert "[cache] loaded nifty_test_scenes" in capsys.readouterr().out
+    _same_scenes(made, built)
+    _same_scenes(made, loaded)
 
 
 def test_scenes_reject_bad_input(sit_case):

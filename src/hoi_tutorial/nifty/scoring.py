@@ -46,12 +46,12 @@ import torch
 
 from .. import intervals, metrics
 from .._validate import check_choice
-from ..infra import single_threaded
+from ..infra import load_or_build, single_threaded
 from ..world import body
 from ..world.features import canonicalize
 from ..world.mocap import generate_clip
-from ..world.motion import Motion
-from ..world.objects import make_object
+from ..world.motion import Motion, motion_from_payload, motion_payload
+from ..world.objects import make_object, object_from_description
 from .motion_model import anchor_skeleton_distance, final_pelvis_distance
 from .paper_numbers import SUPPLEMENT_COLUMNS, TABLE1_COLUMNS
 
@@ -206,15 +206,34 @@ def test_scenes(anchors: Sequence, n_scenes: int, distance_range: tuple[float, f
     for kind in kinds:
         check_choice(kind, ("idle", "walk", "turn", "side_step"), "kinds")
     # held-out scenes depend on the anchors only through their objects' categories and placements and their body
-    # shapes, so scenes made before from the same are the same: a copy of those (the anchor's own objects are not
-    # keyed, and are made again)
-    key = _scenes_key(anchors, n_scenes, (low, high), seed, kinds) if held_out else None
-    if key is not None and key in _SCENES_MADE:
+    # shapes, so scenes made before from the same are the same: a copy of those made in this process, else the cached
+    if not held_out:  # the anchors' own objects: made here each time (they are not keyed)
+        return _make_scenes(anchors, int(n_scenes), low, high, seed, kinds, held_out)
+    key = _scenes_key(anchors, n_scenes, (low, high), seed, kinds)
+    if key in _SCENES_MADE:
         _SCENES_MADE.move_to_end(key)
         return copy.deepcopy(_SCENES_MADE[key])
+
+    def build():
+        return [{"object": {"category": s.obj.category, "params": dict(s.obj.params), "pose": np.asarray(s.obj.pose)},
+                 "start": motion_payload(s.start), "anchor": int(s.anchor), "distance": float(s.distance)}
+                for s in _make_scenes(anchors, int(n_scenes), low, high, seed, kinds, held_out)]
+
+    # Made once, then from the cache (the objects rebuilt from their sizes and poses, the starts field by field):
+    # the same scenes whether just made or loaded.
+    made = load_or_build("nifty_test_scenes", {"scenes": key.hex()}, build)
+    scenes = [TestScene(object_from_description(m["object"]), motion_from_payload(m["start"]), int(m["anchor"]),
+                        float(m["distance"])) for m in made]
+    _SCENES_MADE[key] = copy.deepcopy(scenes)
+    while len(_SCENES_MADE) > _SCENES_KEPT:
+        _SCENES_MADE.popitem(last=False)
+    return scenes
+
+
+def _make_scenes(anchors, n_scenes: int, low: float, high: float, seed: int, kinds, held_out: bool) -> list:
     rng = np.random.default_rng([int(seed), 4242])
     scenes = []
-    for i in range(int(n_scenes)):
+    for i in range(n_scenes):
         a = i % len(anchors)
         anchor = anchors[a]
         obj = make_object(anchor.obj.category, seed=rng).with_pose(anchor.obj.pose) if held_out else anchor.obj
@@ -236,11 +255,8 @@ def test_scenes(anchors: Sequence, n_scenes: int, distance_range: tuple[float, f
         else:
             raise RuntimeError(f"test_scenes: no start {low}-{high} m from the {obj.category} clears it")
         scenes.append(TestScene(obj, start, a, distance))
-    if key is not None:
-        _SCENES_MADE[key] = copy.deepcopy(scenes)
-        while len(_SCENES_MADE) > _SCENES_KEPT:
-            _SCENES_MADE.popitem(last=False)
     return scenes
+
 
 def scene_distance_range(dataset, low: float = 5.0, high: float = 95.0) -> tuple[float, float]:
     """The ``(low, high)`` percentiles of the training sequences' start distances (metres)."""

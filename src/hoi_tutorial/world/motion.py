@@ -18,7 +18,7 @@ from .kinematics import forward_kinematics
 from .rotations import rotation_about_z
 from .skeleton import NUM_BETAS, NUM_JOINTS, bone_offsets, joint_index
 
-__all__ = ["Motion", "ACTIONS", "CONTACT_JOINTS", "action_id", "FPS"]
+__all__ = ["Motion", "ACTIONS", "CONTACT_JOINTS", "action_id", "FPS", "motion_payload", "motion_from_payload"]
 
 FPS = 30.0
 
@@ -184,3 +184,22 @@ def _central_difference(x: torch.Tensor, fps: float) -> torch.Tensor:
     v[0] = (x[1] - x[0]) * fps
     v[-1] = (x[-1] - x[-2]) * fps
     return v
+
+
+def motion_payload(motion: Motion) -> dict:
+    """Every field of ``motion`` as the artifact cache stores it (``infra.load_or_build``): tensors, arrays, numbers
+    and the ``meta`` dict as they are, dtypes kept. :func:`motion_from_payload` gives the motion back, bit for bit."""
+    if not isinstance(motion, Motion):
+        raise TypeError(f"motion: expected a Motion, got {type(motion).__name__}")
+    return {"local_rotations": motion.local_rotations, "root_position": motion.root_position, "betas": motion.betas,
+            "fps": motion.fps, "actions": motion.actions, "contacts": motion.contacts, "meta": dict(motion.meta)}
+
+
+def motion_from_payload(payload: dict) -> Motion:
+    """The :class:`Motion` that :func:`motion_payload` stored."""
+    fields = ("local_rotations", "root_position", "betas", "fps", "actions", "contacts", "meta")
+    if not isinstance(payload, dict) or set(payload) != set(fields):
+        raise ValueError(f"payload: expected a dict with the keys {list(fields)} (motion_payload), got "
+                         f"{sorted(payload) if isinstance(payload, dict) else type(payload).__name__}")
+    return Motion(**{name: payload[name] for name in fields})
+
