@@ -389,3 +389,23 @@ def test_a_motion_comes_back_from_the_cache_field_by_field(tmp_cache):
         motion_payload(clip.joints)
     with pytest.raises(ValueError, match="motion_payload"):
         motion_from_payload({"local_rotations": clip.local_rotations})
+
+
+def test_a_cached_dataset_is_the_dataset_made_directly(tmp_cache, capsys):
+    kinds = ("walk", "reach_grasp", "open_door")
+    made = mocap.generate_dataset(2, seed=4, kinds=kinds, subjects=2)
+    built = mocap.generate_dataset(2, seed=4, kinds=kinds, subjects=2, cache=True)
+    capsys.readouterr()
+    loaded = mocap.generate_dataset(2, seed=4, kinds=kinds, subjects=2, cache=True)
+    assert "[cache] loaded mocap_dataset" in capsys.readouterr().out
+    assert len(made) == len(built) == len(loaded) == 6
+    for x, y, z in zip(made, built, loaded):
+        for name in ("local_rotations", "root_position", "betas", "joints"):
+            assert torch.equal(getattr(x, name), getattr(y, name)) and torch.equal(getattr(x, name), getattr(z, name))
+        np.testing.assert_array_equal(x.actions, z.actions)
+        np.testing.assert_array_equal(x.contacts, z.contacts)
+        assert repr(x.meta) == repr(y.meta) == repr(z.meta)
+    other = mocap.generate_dataset(2, seed=4, kinds=kinds, cache=True)  # the mean body: other clips, not these
+    assert not torch.equal(other[1].betas, made[1].betas) and not torch.equal(other[1].joints, made[1].joints)
+    with pytest.raises(ValueError, match="cache"):
+        mocap.generate_dataset(1, seed=0, kinds=("walk",), cache="yes")

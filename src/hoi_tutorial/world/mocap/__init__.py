@@ -29,8 +29,9 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 import torch
 
+from ...infra.cache import load_or_build
 from ...infra.device import single_threaded
-from ..motion import Motion
+from ..motion import Motion, motion_from_payload, motion_payload
 from ..objects import make_object
 from ..skeleton import NUM_BETAS
 from . import gait
@@ -256,7 +257,7 @@ def _subject_betas(seed: int, subjects) -> Optional[list[torch.Tensor]]:
 
 @single_threaded
 def generate_dataset(n_per_kind: int, *, seed: int, kinds: Optional[Sequence[str]] = None,
-                     subjects=None) -> list[Motion]:
+                     subjects=None, cache: bool = False) -> list[Motion]:
     """A reproducible toy-mocap data set: ``n_per_kind`` clips of each kind.
 
     Clip ``i`` of ``kind`` uses the seed derived from ``(seed, kind, i)`` by
@@ -270,6 +271,9 @@ def generate_dataset(n_per_kind: int, *, seed: int, kinds: Optional[Sequence[str
         kinds: kinds to generate (default: every registered kind, ``ACTION_GENERATORS``).
         subjects: None (mean body), an int ``n`` (``n`` toy subjects from :func:`sample_betas`,
             clip ``i`` performed by subject ``i % n``), or a sequence of ``(10,)`` betas.
+        cache: make the clips once, then load them from the artifact cache (``infra.load_or_build``, keyed by the
+            arguments, the subjects' body shapes and the generators' code): the same clips, bit for bit, for a
+            chapter that shows a data set it does not train on (a builder's own clips are part of what it builds).
     Returns:
         list of ``Motion``, grouped by kind in the order of ``kinds``; ``meta`` records kind,
         seed, index and subject.
@@ -282,7 +286,19 @@ def generate_dataset(n_per_kind: int, *, seed: int, kinds: Optional[Sequence[str
     for kind in kinds:
         if kind not in ACTION_GENERATORS:
             raise ValueError(f"kinds: expected names from {sorted(ACTION_GENERATORS)}, got {kind!r}")
+    if not isinstance(cache, bool):
+        raise ValueError(f"cache: expected a bool, got {cache!r}")
     betas_list = _subject_betas(seed, subjects)
+    if cache:
+        key = {"n_per_kind": int(n_per_kind), "seed": int(seed), "kinds": kinds,
+               "betas": None if betas_list is None else [np.asarray(b, dtype=np.float64) for b in betas_list]}
+        made = load_or_build("mocap_dataset", key, lambda: [motion_payload(m) for m in
+                                                            _generate_dataset(n_per_kind, seed, kinds, betas_list)])
+        return [motion_from_payload(m) for m in made]
+    return _generate_dataset(n_per_kind, seed, kinds, betas_list)
+
+
+def _generate_dataset(n_per_kind: int, seed: int, kinds: list, betas_list) -> list[Motion]:
     clips = []
     for kind in kinds:
         for index in range(int(n_per_kind)):
