@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import torch
 
+from hoi_tutorial.infra import cache as cache_module
 from hoi_tutorial.infra import (
     SCALES,
     CorruptArtifactWarning,
@@ -206,6 +207,34 @@ def test_build_then_load_gives_identical_content(isolated_cache, capsys):
     assert loaded["tensor"].untyped_storage().nbytes() == 8 * 4
     load_or_build("rich", _Config(), build, verbose=False)
     assert capsys.readouterr().out == ""
+
+
+def test_an_artifact_loaded_again_in_a_process_is_a_copy_of_the_first_load(isolated_cache, monkeypatch, capsys):
+    net = torch.nn.Linear(3, 2)
+    build, calls = _counting(lambda: {**_rich_artifact(), "state": state_dict_to_cpu(net)})
+    built = load_or_build("again", _Config(), build)
+    real, read = cache_module._load_verified, []
+    monkeypatch.setattr(cache_module, "_load_verified", lambda *args: read.append(args) or real(*args))
+    first = load_or_build("again", _Config(), build)  # read from the file
+    capsys.readouterr()
+    second = load_or_build("again", _Config(), build)  # a copy of what was read before
+    assert "[cache] loaded again" in capsys.readouterr().out
+    assert len(read) == 1 and len(calls) == 1
+    _assert_same(built, second)
+    assert second["state"]._metadata == built["state"]._metadata  # a state dict's version information kept
+    torch.nn.Linear(3, 2).load_state_dict(second["state"])
+    first["tensor"].add_(1.0)  # what one caller changes, another does not get
+    first["nested"].append("changed")
+    first["int64"][0, 0] = 99
+    third = load_or_build("again", _Config(), build)
+    _assert_same(built, third)
+    assert third["tensor"] is not second["tensor"] and len(read) == 1
+    # a file written since (another process built it again) is read again
+    (path,) = isolated_cache.glob("again-*.pt")
+    stat = path.stat()
+    os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns + 10**9))
+    _assert_same(built, load_or_build("again", _Config(), build))
+    assert len(read) == 2 and len(calls) == 1
 
 
 def test_hoi_cache_and_xdg_are_honoured(tmp_path, monkeypatch):

@@ -5,7 +5,7 @@ import networkx as nx
 import numpy as np
 import pytest
 
-from hoi_tutorial.world.scenes import FOOTPRINT_BAND, make_kitchen, make_room
+from hoi_tutorial.world.scenes import FOOTPRINT_BAND, Room, make_kitchen, make_room
 
 
 @lru_cache(maxsize=None)
@@ -149,3 +149,35 @@ def test_kitchen_states_obstacles_and_determinism():
     assert k.occupancy.shape == (100, 100) and k.occupancy.any()
     starts = k.start_positions(4, seed=0, clearance=0.3)
     assert np.all(k.obstacle_distance(starts) >= 0.3)
+
+
+def test_a_room_comes_back_from_its_layout_as_made(tmp_cache):
+    from hoi_tutorial.infra import load_or_build
+    from hoi_tutorial.world.scenes import room_from_layout, room_layout
+
+    room = make_room(3, n_clutter=5)
+
+    def layout():
+        return room_layout(room)
+
+    stored = load_or_build("room_layout_round_trip", {"seed": 3}, layout)  # built
+    back = room_from_layout(load_or_build("room_layout_round_trip", {"seed": 3}, layout))  # loaded
+    remade = room_from_layout(stored)
+    for other in (back, remade):
+        assert other.shape == room.shape and other.target_index == room.target_index
+        np.testing.assert_array_equal(other.size, room.size)
+        np.testing.assert_array_equal(other.occupancy, room.occupancy)
+        np.testing.assert_array_equal(other.clearance, room.clearance)
+        points = np.random.default_rng(0).uniform([0, 0, 0], [*room.size, 1.5], (200, 3))
+        np.testing.assert_array_equal(other.sdf(points), room.sdf(points))
+        np.testing.assert_array_equal(other.obstacle_distance(points[:, :2]), room.obstacle_distance(points[:, :2]))
+        assert [(o.category, o.params) for o in other.objects] == [(o.category, o.params) for o in room.objects]
+    # the stored grid is the one a room computes from its objects
+    np.testing.assert_array_equal(Room(room.size, back.objects, room.target_index)._footprint_grid,
+                                  back._footprint_grid)
+    with pytest.raises(ValueError, match="room_layout"):
+        room_from_layout({"size": room.size})
+    with pytest.raises(ValueError, match="footprint_grid"):
+        room_from_layout({**stored, "footprint_grid": stored["footprint_grid"][1:]})
+    with pytest.raises(TypeError, match="Room"):
+        room_layout(stored)

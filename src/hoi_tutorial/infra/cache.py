@@ -410,6 +410,34 @@ def _load_verified(path: pathlib.Path, key: str):
         return None, f"{type(exc).__name__}: {exc}"
 
 
+# Artifacts this process loaded, by file (path, key, inode, size, modification time): a chapter loads the same
+# artifact many times (each build checks what it needs, warm_cache first checks every build), and a copy of one
+# loaded before is much quicker than reading and checking the file again. A copy, so that what a caller changes
+# changes nothing another caller gets; the oldest are forgotten past _LOADED_LIMIT bytes of files.
+_LOADED: "OrderedDict[tuple, tuple[int, Any]]" = OrderedDict()
+_LOADED_LIMIT = 512 * 2**20
+_LOADED_LOCK = threading.Lock()
+
+
+def _loaded_before(identity: tuple):
+    with _LOADED_LOCK:
+        found = _LOADED.get(identity)
+        if found is None:
+            return None
+        _LOADED.move_to_end(identity)
+    return copy.deepcopy(found[1])
+
+
+def _remember_loaded(identity: tuple, size: int, artifact) -> None:
+    if size > _LOADED_LIMIT:
+        return
+    kept = copy.deepcopy(artifact)
+    with _LOADED_LOCK:
+        _LOADED[identity] = (size, kept)
+        while sum(n for n, _ in _LOADED.values()) > _LOADED_LIMIT:
+            _LOADED.popitem(last=False)
+
+
 def _save_atomic(blob, path: pathlib.Path) -> None:
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
     try:
@@ -444,10 +472,16 @@ def load_or_build(name: str, config, build: Callable[[], Any], code: Iterable = 
     key = artifact_key(name, config, code)
     path = artifact_path(name, key)
     if path.exists():
-        artifact, reason = _load_verified(path, key)
+        stat = path.stat()
+        identity = (str(path), key, stat.st_ino, stat.st_size, stat.st_mtime_ns)
+        artifact, reason = _loaded_before(identity), None
+        if artifact is None:
+            artifact, reason = _load_verified(path, key)
+            if reason is None:
+                _remember_loaded(identity, stat.st_size, artifact)
         if reason is None:
             if verbose:
-                print(f"[cache] loaded {name} ({_format_bytes(path.stat().st_size)})")
+                print(f"[cache] loaded {name} ({_format_bytes(stat.st_size)})")
             return artifact
         warnings.warn(f"rebuilding corrupt artifact {path} ({reason})", CorruptArtifactWarning,
                       stacklevel=2)

@@ -37,9 +37,8 @@ import numpy as np
 import torch
 
 from .._validate import check_choice, check_shape
-from ..world.objects import object_from_description
 from ..world.primitives import union_sdf
-from ..world.scenes import Room, make_room
+from ..world.scenes import make_room, room_from_layout, room_layout
 from .core import GoalNetCVAE, MotionModel
 from .evaluation import MeasuredRuns, measure_goal_runs, voxel_cells
 from .goalnet import sample_goals
@@ -81,8 +80,8 @@ class RoomTask:
 def cluttered_rooms(n_rooms: int, seed: int = 0, targets: Sequence[str] = ROOM_TARGETS, n_clutter: int = 8) -> list:
     """``n_rooms`` cluttered rooms: room ``k`` is ``world.scenes.make_room(1000 * seed + k, n_clutter=n_clutter,
     target_category=targets[k % len(targets)])``. Made once, then from the cache: each room's layout (its size
-    and every object's category, sizes and pose) rebuilt through ``world.objects.object_from_description`` and
-    ``world.scenes.Room``, the same rooms whether just made or loaded.
+    and every object's category, sizes and pose, and its footprint grid) rebuilt through
+    ``world.scenes.room_from_layout``, the same rooms whether just made or loaded.
 
     Returns:
         a list of ``world.scenes.Room``.
@@ -94,17 +93,11 @@ def cluttered_rooms(n_rooms: int, seed: int = 0, targets: Sequence[str] = ROOM_T
         raise ValueError("targets: expected at least one sittable category")
 
     def build():
-        rooms = [make_room(1000 * int(seed) + k, n_clutter=int(n_clutter), target_category=targets[k % len(targets)])
-                 for k in range(n_rooms)]
-        return [{"size": np.asarray(r.size, dtype=np.float64), "target_index": int(r.target_index),
-                 "cell_size": float(r.cell_size), "body_radius": float(r.body_radius),
-                 "objects": [{"category": o.category, "params": dict(o.params), "pose": np.asarray(o.pose)}
-                             for o in r.objects]} for r in rooms]
+        return [room_layout(make_room(1000 * int(seed) + k, n_clutter=int(n_clutter),
+                                      target_category=targets[k % len(targets)])) for k in range(n_rooms)]
 
     key = {"n_rooms": n_rooms, "seed": int(seed), "targets": list(targets), "n_clutter": int(n_clutter)}
-    layouts = load_or_build("samp_rooms", key, build)
-    return [Room(layout["size"], [object_from_description(o) for o in layout["objects"]], layout["target_index"],
-                 layout["cell_size"], layout["body_radius"]) for layout in layouts]
+    return [room_from_layout(layout) for layout in load_or_build("samp_rooms", key, build)]
 
 
 def room_tasks(rooms: Sequence, seed: int = 0, min_distance: float = 2.0, goalnet: Optional[GoalNetCVAE] = None,

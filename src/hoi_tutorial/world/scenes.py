@@ -23,6 +23,7 @@ from .objects import (
     ToyObject,
     as_rng,
     make_object,
+    object_from_description,
 )
 from .primitives import box, union_sdf
 
@@ -35,6 +36,8 @@ __all__ = [
     "Kitchen",
     "make_room",
     "make_kitchen",
+    "room_layout",
+    "room_from_layout",
 ]
 
 FOOTPRINT_BAND = (0.05, 1.8)  # heights (m) a standing body occupies; parts wholly outside do not block
@@ -66,14 +69,16 @@ def _objects_footprint_distance(objects, xy) -> np.ndarray:
 class _GridScene:
     """Shared 2D-grid and distance logic; subclasses provide ``size``, ``cell_size`` and ``objects``."""
 
-    def _init_grid(self):
+    def _init_grid(self, footprint_grid=None):
         self.size = np.asarray(self.size, dtype=np.float64).reshape(2)
         if np.any(self.size <= 0) or self.cell_size <= 0:
             raise ValueError(f"size, cell_size: expected positive values, got {self.size.tolist()}, {self.cell_size}")
         self.shape = tuple(int(np.ceil(s / self.cell_size - 1e-9)) for s in self.size[::-1])  # (H, W)
         centres = self.grid_to_world(np.stack(np.meshgrid(*map(np.arange, self.shape), indexing="ij"), -1))
         flat = centres.reshape(-1, 2)
-        self._footprint_grid = _objects_footprint_distance(self.objects, flat).reshape(self.shape)
+        if footprint_grid is None:
+            footprint_grid = _objects_footprint_distance(self.objects, flat).reshape(self.shape)
+        self._footprint_grid = footprint_grid
         self._clearance_grid = np.minimum(self._footprint_grid, self._wall_distance(flat).reshape(self.shape))
         self._walls = _wall_primitives(self.size)
 
@@ -357,6 +362,40 @@ def _grid_centres(size, cell):
     H, W = (int(np.ceil(s / cell - 1e-9)) for s in np.asarray(size)[::-1])
     i, j = np.meshgrid(np.arange(H), np.arange(W), indexing="ij")
     return np.stack([(j + 0.5) * cell, (i + 0.5) * cell], axis=-1).reshape(-1, 2)
+
+
+def room_layout(room: Room) -> dict:
+    """What ``room`` is, as the artifact cache stores it (``infra.load_or_build``): its size, grid settings, every
+    object's category, sizes and pose, and its footprint distance grid as computed (the slow part of making a room).
+    :func:`room_from_layout` gives the room back."""
+    if not isinstance(room, Room):
+        raise TypeError(f"room: expected a Room, got {type(room).__name__}")
+    return {"size": np.asarray(room.size, dtype=np.float64), "target_index": int(room.target_index),
+            "cell_size": float(room.cell_size), "body_radius": float(room.body_radius),
+            "objects": [{"category": o.category, "params": dict(o.params), "pose": np.asarray(o.pose)}
+                        for o in room.objects],
+            "footprint_grid": np.asarray(room._footprint_grid)}
+
+
+def room_from_layout(layout: dict) -> Room:
+    """The :class:`Room` of :func:`room_layout`: its objects rebuilt from their sizes and poses
+    (``objects.object_from_description``) and the footprint grid it stored, the same room bit for bit."""
+    names = ("size", "target_index", "cell_size", "body_radius", "objects", "footprint_grid")
+    if not isinstance(layout, dict) or set(layout) != set(names):
+        raise ValueError(f"layout: expected a dict with the keys {list(names)} (room_layout), got "
+                         f"{sorted(layout) if isinstance(layout, dict) else type(layout).__name__}")
+    room = Room.__new__(Room)
+    room.size, room.target_index = layout["size"], int(layout["target_index"])
+    room.cell_size, room.body_radius = float(layout["cell_size"]), float(layout["body_radius"])
+    room.objects = [object_from_description(o) for o in layout["objects"]]
+    if not 0 <= room.target_index < len(room.objects):
+        raise ValueError(f"layout['target_index']: expected an index into {len(room.objects)} objects, "
+                         f"got {room.target_index}")
+    grid = np.asarray(layout["footprint_grid"], dtype=np.float64)
+    shape = tuple(int(np.ceil(s / room.cell_size - 1e-9)) for s in np.asarray(room.size, dtype=np.float64)[::-1])
+    check_shape(grid, shape, "layout['footprint_grid']")
+    room._init_grid(grid)
+    return room
 
 
 def make_room(
