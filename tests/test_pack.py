@@ -60,6 +60,21 @@ def test_a_pack_unpacked_into_an_empty_cache_is_loaded_without_building(tmp_path
     assert len(again.present) == 2 and not again.unpacked
 
 
+def test_files_that_deflate_well_are_deflated_and_the_rest_stored(tmp_path, monkeypatch):
+    monkeypatch.setenv("HOI_CACHE", str(tmp_path / "run"))
+    noise = np.random.default_rng(0).standard_normal(200_000).astype(np.float32)  # floats: deflate gains little
+    load_or_build("floats", {}, lambda: {"x": noise}, verbose=False)
+    load_or_build("zeros", {}, lambda: {"x": np.zeros(200_000, dtype=np.float32)}, verbose=False)
+    manifest = pack.make_pack(tmp_path / "p.zip", tmp_path / "run", scale="toy", seed=0)
+    with zipfile.ZipFile(tmp_path / "p.zip") as archive:
+        kinds = {info.filename.split("-")[0]: info.compress_type for info in archive.infolist()}
+    assert kinds["floats"] == zipfile.ZIP_STORED and kinds["zeros"] == zipfile.ZIP_DEFLATED
+    report = pack.unpack(tmp_path / "p.zip", tmp_path / "reader", verbose=False)
+    assert sorted(report.unpacked) == sorted(f["name"] for f in manifest["files"])
+    for record in manifest["files"]:
+        assert hashlib.sha256((tmp_path / "reader" / record["name"]).read_bytes()).hexdigest() == record["sha256"]
+
+
 def test_a_chapter_unpacks_only_what_it_used_when_the_pack_was_made(tmp_path, monkeypatch, toy_library):
     _, data, other = toy_library
     _book_run(tmp_path / "run", monkeypatch, data, other)
