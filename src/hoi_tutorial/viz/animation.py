@@ -305,7 +305,7 @@ def animate_motion(motions, *, view: str = "3d", objects: Sequence = (), moving_
     else:
         fig.tight_layout()
     anim = FuncAnimation(fig, update, frames=len(frames), interval=1000.0 * stride / fps, blit=False)
-    anim._hoi_frames = (update, len(frames))  # what to_html draws frame by frame (_still_and_moving)
+    anim._hoi_frames = (update, len(frames))  # what to_html draws frame by frame (_drawn_frames)
     return anim
 
 
