@@ -202,3 +202,4 @@ def motion_from_payload(payload: dict) -> Motion:
         raise ValueError(f"payload: expected a dict with the keys {list(fields)} (motion_payload), got "
                          f"{sorted(payload) if isinstance(payload, dict) else type(payload).__name__}")
     return Motion(**{name: payload[name] for name in fields})
+
