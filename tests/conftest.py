@@ -25,6 +25,26 @@ def tmp_cache(tmp_path, monkeypatch):
     return cache_dir
 
 
+def _assert_same_motion(a, b):
+    import numpy as np
+    import torch
+
+    for name in ("local_rotations", "root_position", "betas", "joints"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert x.dtype == y.dtype and torch.equal(x, y), name
+    for name in ("actions", "contacts"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert (x is None and y is None) or np.array_equal(x, y), name
+    assert a.fps == b.fps and repr(a.meta) == repr(b.meta)
+
+
+@pytest.fixture
+def assert_same_motion():
+    """A check that two ``Motion``s are the same field by field: rotations, root, body shape and joints (dtype and
+    bits), action and contact labels, frame rate and meta."""
+    return _assert_same_motion
+
+
 @pytest.fixture(scope="module")
 def one_cpu_thread():
     """Run a module's tests on one torch thread (``infra.one_thread``): tiny models run fastest

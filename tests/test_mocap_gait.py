@@ -366,7 +366,7 @@ def test_generate_dataset_is_deterministic_and_seeds_each_clip_independently():
         mocap.generate_dataset(1, seed=0, kinds=["moonwalk"])
 
 
-def test_a_motion_comes_back_from_the_cache_field_by_field(tmp_cache):
+def test_a_motion_comes_back_from_the_cache_field_by_field(tmp_cache, assert_same_motion):
     from hoi_tutorial.infra import load_or_build
     from hoi_tutorial.world.motion import motion_from_payload, motion_payload
 
@@ -378,20 +378,14 @@ def test_a_motion_comes_back_from_the_cache_field_by_field(tmp_cache):
 
         load_or_build("motion_round_trip", {"k": k}, payload)  # built and stored
         back = motion_from_payload(load_or_build("motion_round_trip", {"k": k}, payload))  # loaded
-        for name in ("local_rotations", "root_position", "betas", "joints"):
-            a, b = getattr(motion, name), getattr(back, name)
-            assert a.dtype == b.dtype and torch.equal(a, b)
-        for name in ("actions", "contacts"):
-            a, b = getattr(motion, name), getattr(back, name)
-            assert (a is None and b is None) or np.array_equal(a, b)
-        assert back.fps == motion.fps and repr(back.meta) == repr(motion.meta)
+        assert_same_motion(motion, back)
     with pytest.raises(TypeError, match="Motion"):
         motion_payload(clip.joints)
     with pytest.raises(ValueError, match="motion_payload"):
         motion_from_payload({"local_rotations": clip.local_rotations})
 
 
-def test_a_cached_dataset_is_the_dataset_made_directly(tmp_cache, capsys):
+def test_a_cached_dataset_is_the_dataset_made_directly(tmp_cache, capsys, assert_same_motion):
     kinds = ("walk", "reach_grasp", "open_door")
     made = mocap.generate_dataset(2, seed=4, kinds=kinds, subjects=2)
     built = mocap.generate_dataset(2, seed=4, kinds=kinds, subjects=2, cache=True)
@@ -400,11 +394,8 @@ def test_a_cached_dataset_is_the_dataset_made_directly(tmp_cache, capsys):
     assert "[cache] loaded mocap_dataset" in capsys.readouterr().out
     assert len(made) == len(built) == len(loaded) == 6
     for x, y, z in zip(made, built, loaded):
-        for name in ("local_rotations", "root_position", "betas", "joints"):
-            assert torch.equal(getattr(x, name), getattr(y, name)) and torch.equal(getattr(x, name), getattr(z, name))
-        np.testing.assert_array_equal(x.actions, z.actions)
-        np.testing.assert_array_equal(x.contacts, z.contacts)
-        assert repr(x.meta) == repr(y.meta) == repr(z.meta)
+        assert_same_motion(x, y)
+        assert_same_motion(x, z)
     other = mocap.generate_dataset(2, seed=4, kinds=kinds, cache=True)  # the mean body: other clips, not these
     assert not torch.equal(other[1].betas, made[1].betas) and not torch.equal(other[1].joints, made[1].joints)
     with pytest.raises(ValueError, match="cache"):

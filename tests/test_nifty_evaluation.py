@@ -105,22 +105,17 @@ def test_scenes_made_before_from_the_same_anchors_are_handed_out_as_copies(sit_c
     assert scoring.test_scenes(anchors, 3, (1.0, 2.0), seed=6)[0].distance != first[0].distance
 
 
-def _same_scenes(xs, ys):
+def _same_scenes(xs, ys, assert_same_motion):
     points = np.random.default_rng(0).uniform(-1.0, 1.0, (64, 3))
     assert len(xs) == len(ys)
     for x, y in zip(xs, ys):
         assert (x.anchor, x.distance, x.obj.category, x.obj.params) == (y.anchor, y.distance, y.obj.category, y.obj.params)
         np.testing.assert_array_equal(x.obj.pose, y.obj.pose)
         np.testing.assert_array_equal(x.obj.sdf(points), y.obj.sdf(points))
-        for name in ("local_rotations", "root_position", "betas", "joints"):
-            a, b = getattr(x.start, name), getattr(y.start, name)
-            assert a.dtype == b.dtype and torch.equal(a, b)
-        np.testing.assert_array_equal(x.start.actions, y.start.actions)
-        np.testing.assert_array_equal(x.start.contacts, y.start.contacts)
-        assert x.start.fps == y.start.fps and repr(x.start.meta) == repr(y.start.meta)
+        assert_same_motion(x.start, y.start)
 
 
-def test_held_out_scenes_come_back_from_the_cache_as_made(sit_case, tmp_cache, capsys):
+def test_held_out_scenes_come_back_from_the_cache_as_made(sit_case, tmp_cache, capsys, assert_same_motion):
     _, anchors = sit_case
     made = scoring._make_scenes(anchors, 4, 1.0, 2.0, 9, ("idle", "walk"), True)
     scoring._SCENES_MADE.clear()
@@ -129,8 +124,8 @@ def test_held_out_scenes_come_back_from_the_cache_as_made(sit_case, tmp_cache, c
     capsys.readouterr()
     loaded = scoring.test_scenes(anchors, 4, (1.0, 2.0), seed=9)
     assert "[cache] loaded nifty_test_scenes" in capsys.readouterr().out
-    _same_scenes(made, built)
-    _same_scenes(made, loaded)
+    _same_scenes(made, built, assert_same_motion)
+    _same_scenes(made, loaded, assert_same_motion)
 
 
 def test_scenes_reject_bad_input(sit_case):
