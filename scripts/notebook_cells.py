@@ -6,7 +6,8 @@ it is tagged ``hide-cell`` so the rendered book folds it away. The install addre
 ``HOI_TUTORIAL_SOURCE``, when set, replaces it with any other ``pip install`` target, e.g. the path
 of a local checkout (``make colab-check`` uses this). A chapter that calls ``hoi_tutorial.viz.render``'s
 renders installs the library with its ``render`` extra (pyvista and VTK); the others install the core alone.
-Cell 2 is papermill's ``parameters`` cell; the tool adds its ``PRETRAINED`` line where it is missing. Cell 3,
+Cell 2 is papermill's ``parameters`` cell; the tool adds its ``PRETRAINED`` line where it is missing, and its
+``hide-input`` tag (folded on the page, so the page opens on the chapter's title). Cell 3,
 also hidden, unpacks a pretrained pack into the artifact cache when ``PRETRAINED`` asks for one
 (``hoi_tutorial.infra.use_pretrained``; off by default, in CI and in ``make book``).
 
@@ -107,6 +108,8 @@ def setup_source(render: bool = False) -> str:
 # The parameter that asks for a pretrained pack, as the parameters cell states it (off by default).
 PRETRAINED_LINE = "PRETRAINED = False  # True: the release's pretrained pack (a download); or a pack's path or URL\n"
 PRETRAINED_TAGS = ["hide-cell", "pretrained"]
+# The parameters cell is folded on the rendered page, so a chapter's page opens on its title (Colab ignores tags).
+PARAMETERS_FOLD = "hide-input"
 
 
 def pretrained_source(chapter: str) -> str:
@@ -150,8 +153,8 @@ def _with_pretrained_line(source: str) -> str:
 
 
 def stamp(path: Path, check: bool = False) -> bool:
-    """Make cell 1 the current set-up cell, give cell 2 its ``PRETRAINED`` line and cell 3 the current pretrained
-    cell; return True when the file was (or would be) changed."""
+    """Make cell 1 the current set-up cell, give cell 2 its ``PRETRAINED`` line and its ``hide-input`` tag and cell 3
+    the current pretrained cell; return True when the file was (or would be) changed."""
     nb = nbformat.read(path, as_version=4)
     cells = nb.cells
     first = cells[0] if cells else None
@@ -160,7 +163,8 @@ def stamp(path: Path, check: bool = False) -> bool:
     setup_ok = is_setup and first.source == wanted.source and first.metadata.get("tags") == wanted.metadata["tags"]
     at = 1 if is_setup else 0  # where the parameters cell is now (cell 2 once the set-up cell is in place)
     params = cells[at] if len(cells) > at and "parameters" in cells[at].metadata.get("tags", []) else None
-    params_ok = params is None or _with_pretrained_line(params.source) == params.source
+    params_ok = params is None or (_with_pretrained_line(params.source) == params.source
+                                   and PARAMETERS_FOLD in params.metadata.get("tags", []))
     third = cells[at + 1] if len(cells) > at + 1 and "pretrained" in cells[at + 1].metadata.get("tags", []) else None
     third_ok = params is None or (third is not None and third.source == pretrained_source(path.stem)
                                   and third.metadata.get("tags") == PRETRAINED_TAGS)
@@ -176,6 +180,8 @@ def stamp(path: Path, check: bool = False) -> bool:
         cells.insert(0, wanted)
     if params is not None:
         params.source = _with_pretrained_line(params.source)
+        if PARAMETERS_FOLD not in params.metadata.get("tags", []):
+            params.metadata["tags"] = list(params.metadata.get("tags", [])) + [PARAMETERS_FOLD]
         cell = nbformat.v4.new_code_cell(pretrained_source(path.stem), metadata={"tags": list(PRETRAINED_TAGS)})
         if third is not None:
             cell.id = third.id

@@ -1,7 +1,8 @@
 """Every chapter follows the notebook conventions: stored without outputs, a hidden set-up cell
 first (installing from the repository named in _config.yml), papermill's parameters cell second (the
-pretrained pack off), the hidden pretrained-pack cell third, listed in the table of contents, and at least one assert on computed values."""
+pretrained pack off; folded on the page), the hidden pretrained-pack cell third, listed in the table of contents, and at least one assert on computed values."""
 import importlib.util
+import sys
 from pathlib import Path
 
 import nbformat
@@ -52,6 +53,7 @@ def test_notebook_conventions(path):
     for name in ("SCALE", "SEED", "DEVICE"):
         assert f"{name} =" in second.source, f"parameters cell lacks {name}"
     assert notebook_cells.PRETRAINED_LINE in second.source, "the pretrained pack is off by default"
+    assert notebook_cells.PARAMETERS_FOLD in second.metadata.get("tags", []), "the parameters cell is folded on the page"
     third = nb.cells[2]
     assert third.source == notebook_cells.pretrained_source(path.stem) and "hide-cell" in third.metadata.get("tags", []), \
         "cell 3 is not the current pretrained-pack cell"
@@ -72,8 +74,25 @@ def test_stamping_adds_the_pretrained_parameter_and_cell(tmp_path):
     assert cells[1].source == 'SCALE = "toy"\nSEED = 0\nDEVICE = "auto"\n' + notebook_cells.PRETRAINED_LINE + "N = 3"
     assert cells[2].source == notebook_cells.pretrained_source("chapter") and cells[3].source == "assert N == 3"
     assert 'chapter="chapter"' in cells[2].source  # the pack unpacks what this chapter uses
+    assert cells[1].metadata["tags"] == ["parameters", notebook_cells.PARAMETERS_FOLD]
     assert not notebook_cells.stamp(path)  # stamped once: nothing left to change
     namespace = {"SCALE": "toy", "SEED": 0}
     exec(notebook_cells.PRETRAINED_LINE, namespace)
     exec(notebook_cells.pretrained_source("chapter"), namespace)  # off by default: unpacks nothing
     assert namespace["PRETRAINED"] is False and namespace["_pack"] is None
+
+
+# The chapters that follow the lesson template (book/conventions.md, "How a chapter is laid out"); each chapter
+# joins this list when it is moved to the template, and scripts/prose_stats.py --check then guards its layout.
+TEMPLATE_CHAPTERS = ["02_diffusion_and_guidance", "15_choice_fields", "18_choice_phase_kalman"]
+
+_stats_spec = importlib.util.spec_from_file_location("prose_stats", REPO_ROOT / "scripts" / "prose_stats.py")
+prose_stats = importlib.util.module_from_spec(_stats_spec)
+sys.modules.setdefault("prose_stats", prose_stats)  # its dataclasses look their module up while being defined
+_stats_spec.loader.exec_module(prose_stats)
+
+
+@pytest.mark.parametrize("chapter", TEMPLATE_CHAPTERS)
+def test_chapter_follows_the_template(chapter):
+    nb = prose_stats.load_notebook(REPO_ROOT / "notebooks" / f"{chapter}.ipynb")
+    assert prose_stats.template_problems(nb) == []
