@@ -46,8 +46,8 @@ one of the template's parts (:func:`template_problems`):
 2. the parameters cell (tag ``parameters``) is also tagged ``hide-input``;
 3. a ``## Summary`` heading with 3-5 bullets after it in its cell;
 4. a ``## Exercises`` heading; at least 3 ``### Exercise N`` headings numbered 1..n in order; for each, a solution
-   cell (tags ``solution`` and ``hide-input``, first line ``# Solution to exercise N``) after it that contains
-   ``assert``; at least one exercise with a visible code cell (not tagged ``solution``, ``hide-*``,
+   cell (tags ``solution`` and ``hide-cell``, so source and output are folded; first line
+   ``# Solution to exercise N``) after it that contains ``assert``; at least one exercise with a visible code cell (not tagged ``solution``, ``hide-*``,
    ``remove-cell`` or ``remove-input``) between its heading and its solution (the "complete this function" one);
 5. ``## Reproduction check`` is the last H2 heading; after it every markdown cell's text, headings aside, is inside
    ``{dropdown}`` blocks (colon or backtick fences; an admonition with ``:class: dropdown`` also counts) and every
@@ -740,8 +740,8 @@ def _exercise_problems(nb: dict) -> List[str]:
         index, cell = solution
         if index < heading_index:
             problems.append(f"the solution to exercise {number} (cell {index + 1}) comes before its heading")
-        if "hide-input" not in cell_tags(cell):
-            problems.append(f"the solution to exercise {number} (cell {index + 1}) is not tagged 'hide-input'")
+        if "hide-cell" not in cell_tags(cell):  # source and output folded: the reader tries first
+            problems.append(f"the solution to exercise {number} (cell {index + 1}) is not tagged 'hide-cell'")
         if not is_solution_cell(cell):
             problems.append(f"the solution to exercise {number} (cell {index + 1}) has no 'assert'")
         between = nb["cells"][heading_index + 1:index]
