@@ -11,7 +11,10 @@ into those two kinds and flags the rest:
 - ``interval``: the asserted expression calls ``.holds(``;
 - ``guard``: a comment in the few lines above says it is a guard, a wiring or protocol check, an identity or a
   property that holds by design;
-- ``unmarked``: neither (``tests/test_chapter_asserts.py`` requires there be none).
+- ``exercise``: an assert in an exercise's solution (a cell tagged ``solution``) that is neither of the above: it
+  checks the outcome the exercise states, with the margin its text gives ("How a chapter is laid out"), so that
+  a change of the library that breaks an exercise fails the build; it is not a claim of the paper;
+- ``unmarked``: none of these (``tests/test_chapter_asserts.py`` requires there be none).
 """
 from __future__ import annotations
 
@@ -60,6 +63,7 @@ def chapter_asserts(path: pathlib.Path) -> list[dict]:
         if cell["cell_type"] != "code" or "assert" not in _code(cell):
             continue
         source = _code(cell)
+        in_solution = "solution" in cell.get("metadata", {}).get("tags", [])
         try:
             tree = ast.parse(source)
         except SyntaxError:  # IPython magics: the set-up cell, which holds no assert
@@ -76,6 +80,8 @@ def chapter_asserts(path: pathlib.Path) -> list[dict]:
                 kind = "interval"
             elif GUARD_WORDS.search(comments):
                 kind = "guard"
+            elif in_solution:
+                kind = "exercise"
             else:
                 kind = "unmarked"
             found.append({"cell": index, "line": node.lineno, "text": " ".join(test.split()), "kind": kind})
@@ -96,8 +102,8 @@ def main() -> None:
         for name, asserts in chapters.items():
             counts = Counter(a["kind"] for a in asserts)
             total.update(counts)
-            print(f"{name:40s} " + ", ".join(f"{counts[k]} {k}" for k in ("interval", "guard", "unmarked")))
-        print(f"{'all chapters':40s} " + ", ".join(f"{total[k]} {k}" for k in ("interval", "guard", "unmarked")))
+            print(f"{name:40s} " + ", ".join(f"{counts[k]} {k}" for k in ("interval", "guard", "exercise", "unmarked")))
+        print(f"{'all chapters':40s} " + ", ".join(f"{total[k]} {k}" for k in ("interval", "guard", "exercise", "unmarked")))
         return
     for name, asserts in chapters.items():
         for a in asserts:

@@ -1,4 +1,4 @@
-"""Every chapter assert is either an interval's verdict or a commented guard (scripts/assert_audit.py)."""
+"""Every chapter assert is an interval's verdict, a commented guard or an exercise's check (scripts/assert_audit.py)."""
 import importlib.util
 import json
 from pathlib import Path
@@ -9,9 +9,12 @@ assert_audit = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(assert_audit)
 
 
-def _notebook(tmp_path, *cells):
+def _notebook(tmp_path, *cells, tags=None):
     path = tmp_path / "chapter.ipynb"
-    path.write_text(json.dumps({"cells": [{"cell_type": "code", "source": source} for source in cells]}))
+    tags = tags or {}
+    path.write_text(json.dumps({"cells": [{"cell_type": "code", "source": source,
+                                           "metadata": {"tags": tags.get(index, [])}}
+                                          for index, source in enumerate(cells)]}))
     return path
 
 
@@ -30,7 +33,15 @@ def test_the_audit_tells_intervals_guards_and_bare_comparisons_apart(tmp_path):
                      (5, "unmarked")]
 
 
-def test_every_chapter_assert_is_an_interval_verdict_or_a_commented_guard():
+def test_an_exercise_solution_asserts_its_stated_outcome(tmp_path):
+    solution = "# Solution to exercise 1\nassert ratio > 2, 'the stated outcome'"
+    path = _notebook(tmp_path, solution, solution, "found = intervals.share_interval(x)\nassert found.holds('above')",
+                     tags={0: ["hide-cell", "solution"], 2: ["hide-cell", "solution"]})
+    kinds = [(a["cell"], a["kind"]) for a in assert_audit.chapter_asserts(path)]
+    assert kinds == [(0, "exercise"), (1, "unmarked"), (2, "interval")]  # outside a solution: unmarked
+
+
+def test_every_chapter_assert_is_an_interval_verdict_a_commented_guard_or_an_exercise_check():
     chapters = assert_audit.all_chapters()
     assert len(chapters) == 19
     unmarked = [f"{name} cell {a['cell']}: {a['text'][:80]}" for name, asserts in chapters.items() for a in asserts
