@@ -82,9 +82,9 @@ def test_stamping_adds_the_pretrained_parameter_and_cell(tmp_path):
     assert namespace["PRETRAINED"] is False and namespace["_pack"] is None
 
 
-# The chapters that follow the lesson template (book/conventions.md, "How a chapter is laid out"); each chapter
-# joins this list when it is moved to the template, and scripts/prose_stats.py --check then guards its layout.
-TEMPLATE_CHAPTERS = ["01_toy_world", "02_diffusion_and_guidance", "03_synthetic_interaction_data", "04_object_conditioned_motion_model", "05_object_interaction_fields", "06_evaluating_nifty", "11_samp_goals_and_paths", "12_samp_motionnet", "13_samp_baselines", "14_samp_pipeline", "16_choice_planner", "17_choice_table3", "15_choice_fields", "18_choice_phase_kalman", "19_choice_pick_and_place"]
+# Every chapter follows the lesson template (book/conventions.md, "How a chapter is laid out"):
+# scripts/prose_stats.py --check guards its layout.
+TEMPLATE_CHAPTERS = [p.stem for p in NOTEBOOKS]
 
 _stats_spec = importlib.util.spec_from_file_location("prose_stats", REPO_ROOT / "scripts" / "prose_stats.py")
 prose_stats = importlib.util.module_from_spec(_stats_spec)
