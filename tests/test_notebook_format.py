@@ -2,7 +2,6 @@
 first (installing from the repository named in _config.yml), papermill's parameters cell second (the
 pretrained pack off; folded on the page), the hidden pretrained-pack cell third, listed in the table of contents, and at least one assert on computed values."""
 import importlib.util
-import sys
 from pathlib import Path
 
 import nbformat
@@ -81,18 +80,3 @@ def test_stamping_adds_the_pretrained_parameter_and_cell(tmp_path):
     exec(notebook_cells.pretrained_source("chapter"), namespace)  # off by default: unpacks nothing
     assert namespace["PRETRAINED"] is False and namespace["_pack"] is None
 
-
-# Every chapter follows the lesson template (book/conventions.md, "How a chapter is laid out"):
-# scripts/prose_stats.py --check guards its layout.
-TEMPLATE_CHAPTERS = [p.stem for p in NOTEBOOKS]
-
-_stats_spec = importlib.util.spec_from_file_location("prose_stats", REPO_ROOT / "scripts" / "prose_stats.py")
-prose_stats = importlib.util.module_from_spec(_stats_spec)
-sys.modules.setdefault("prose_stats", prose_stats)  # its dataclasses look their module up while being defined
-_stats_spec.loader.exec_module(prose_stats)
-
-
-@pytest.mark.parametrize("chapter", TEMPLATE_CHAPTERS)
-def test_chapter_follows_the_template(chapter):
-    nb = prose_stats.load_notebook(REPO_ROOT / "notebooks" / f"{chapter}.ipynb")
-    assert prose_stats.template_problems(nb) == []

@@ -408,3 +408,13 @@ def test_cli_table_and_json(tmp_path):
     assert as_json.returncode == 0
     rows = json.loads(as_json.stdout)
     assert rows[0]["chapter"] == "99_toy" and rows[0]["main_words"] == MAIN_WORDS
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Every chapter of the book follows the lesson template (book/conventions.md, "How a chapter is laid out")
+
+
+@pytest.mark.parametrize("chapter", [p.stem for p in prose_stats.default_notebooks()])
+def test_chapter_follows_the_template(chapter):
+    nb = prose_stats.load_notebook(REPO_ROOT / "notebooks" / f"{chapter}.ipynb")
+    assert prose_stats.template_problems(nb) == []
