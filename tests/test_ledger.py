@@ -91,7 +91,7 @@ def test_status_follows_from_the_checks(checks, status):
 
 
 def test_an_interval_that_straddles_zero_is_recorded_inconclusive(tmp_cache):
-    # A direction measured with a paired bootstrap: a difference that noise alone could give is neither
+    # A direction measured with a paired interval: a difference that noise alone could give is neither
     # reproduced nor refuted.
     rng = np.random.default_rng(0)
     a = rng.normal(0, 1, 24)

@@ -270,25 +270,28 @@ def _scores(d2o, skel, iou, pose=None):
 
 
 def test_paired_comparison_known_answers_and_verdicts():
-    # Ours reaches 3 of 4 scenes and theirs 1; ours is 2 m nearer the anchors in every scene.
-    ours = _scores([0.0, 0.01, 0.015, 0.4], [1.0, 2.0, 3.0, 4.0], [0.5, 0.5, 0.5, 0.5])
-    theirs = _scores([0.3, 0.01, 0.6, 0.9, 5.0], [3.0, 4.0, 5.0, 6.0, 9.0], [0.5, 0.5, 0.5, 0.5, 0.0])
-    found = scoring.paired_comparison(ours, theirs, n_scenes=4)
+    # Ours reaches 4 of 6 scenes and theirs 1; ours is 2 m nearer the anchors in every scene.
+    ours = _scores([0.0, 0.01, 0.015, 0.4, 0.005, 0.03], [1.0, 2.0, 3.0, 4.0, 5.0, 6.0], [0.5] * 6)
+    theirs = _scores([0.3, 0.01, 0.6, 0.9, 0.3, 0.5, 5.0], [3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0], [0.5] * 6 + [0.0])
+    found = scoring.paired_comparison(ours, theirs, n_scenes=6)
     assert set(found) == {"reach", "d2o", "skel", "pose", "contact_iou"}
     assert found["reach"].estimate == pytest.approx(0.5)
-    assert found["d2o"].estimate == pytest.approx(np.median(ours.d2o) - np.median(theirs.d2o[:4]))
+    assert found["d2o"].estimate == pytest.approx(np.median(ours.d2o - theirs.d2o[:6]))   # the median difference
     assert found["skel"].estimate == pytest.approx(-2.0)
     assert (found["skel"].low, found["skel"].high) == pytest.approx((-2.0, -2.0))   # every pair differs by 2 m
     assert found["skel"].verdict("below") == "held" and found["contact_iou"].verdict("above") == "inconclusive"
-    assert found["skel"].n == 4
-    # the fifth scene of theirs (9 m) changes nothing when only the first four are compared
-    assert scoring.paired_comparison(ours, _scores(theirs.d2o[:4], theirs.skeleton_distance[:4],
-                                                   theirs.contact_iou[:4]))["skel"] == found["skel"]
+    assert found["skel"].n == 6
+    # the seventh scene of theirs (9 m) changes nothing when only the first six are compared
+    assert scoring.paired_comparison(ours, _scores(theirs.d2o[:6], theirs.skeleton_distance[:6],
+                                                   theirs.contact_iou[:6]))["skel"] == found["skel"]
+    # four scenes are too few for any 95 % interval: every direction is inconclusive, even 2 m in every scene
+    few = scoring.paired_comparison(ours, theirs, n_scenes=4)
+    assert few["skel"].verdict("below") == "inconclusive"
 
 
 def test_comparison_table_shows_each_difference_and_its_verdict():
-    ours = _scores([0.0, 0.01, 0.015, 0.4], [1.0, 2.0, 3.0, 4.0], [0.5, 0.5, 0.5, 0.5])
-    theirs = _scores([0.3, 0.01, 0.6, 0.9], [3.0, 4.0, 5.0, 6.0], [0.5, 0.5, 0.5, 0.5])
+    ours = _scores([0.0, 0.01, 0.015, 0.4, 0.005, 0.03], [1.0, 2.0, 3.0, 4.0, 5.0, 6.0], [0.5] * 6)
+    theirs = _scores([0.3, 0.01, 0.6, 0.9, 0.3, 0.5], [3.0, 4.0, 5.0, 6.0, 7.0, 8.0], [0.5] * 6)
     table = scoring.comparison_table({"ours vs theirs": scoring.paired_comparison(ours, theirs),
                                       "theirs vs ours": scoring.paired_comparison(theirs, ours)})
     assert list(table.index) == ["ours vs theirs", "theirs vs ours"]

@@ -16,7 +16,7 @@ Typical use at the end of a chapter::
                   checks={"skeleton distance falls from N = 1 to 10 (sit)": gap.verdict("above")},
                   ours=f"mean skeleton distance {d1:.2f} m with N = 1, {d10:.2f} m with N = 10")
 
-where ``gap = intervals.paired_difference(skel_1, skel_10)`` is the paired bootstrap interval over the same test
+where ``gap = intervals.paired_difference(skel_1, skel_10)`` is the paired interval over the same test
 scenes: a direction whose interval straddles zero is recorded as *inconclusive*.
 """
 from .claims import CLAIMS, PAPERS, Claim, claim

@@ -24,7 +24,7 @@ Per generated motion (its last frame is the interaction pose):
   the person got).
 
 :func:`table_row` condenses them as Table 1 does; :func:`paired_comparison` sets two methods' scores
-of the same scenes against each other, each difference with its paired bootstrap interval.
+of the same scenes against each other, each difference with its paired interval.
 
 Scaled down: 500 test scenes per action -> 32; sequences of 150 frames -> the model's
 ``max_frames``.
@@ -521,7 +521,7 @@ def pose_row(results: MotionScores, threshold: float) -> dict:
 
 # The side of zero on which "ours is better" lies, for each difference :func:`paired_comparison` returns.
 BETTER = {"reach": "above", "d2o": "below", "skel": "below", "pose": "below", "contact_iou": "above"}
-_COMPARISON_LABELS = {"reach": ("% D2O ≤ 2cm (points)", 100.0), "d2o": ("median D2O (m)", 1.0),
+_COMPARISON_LABELS = {"reach": ("% D2O ≤ 2cm (points)", 100.0), "d2o": ("D2O, median difference (m)", 1.0),
                       "skel": ("mean Skel. Dist. (m)", 1.0), "pose": ("mean Pose Dist. (m)", 1.0),
                       "contact_iou": ("contact IoU", 1.0)}
 
@@ -541,9 +541,9 @@ def paired_comparison(ours: MotionScores, theirs: MotionScores, n_scenes: Option
         ``{"reach": ..., "d2o": ..., "skel": ..., "pose": ..., "contact_iou": ...}``, each an
         :class:`~hoi_tutorial.intervals.Interval` of ours minus theirs, paired scene by scene
         (:func:`~hoi_tutorial.intervals.paired_difference`): the share of scenes with D2O at most the
-        threshold (0-1), the median D2O (m), the mean skeleton distance (m), the mean pose-only
-        distance (m) and the mean contact IoU. "Ours is better" reads ``verdict("above")`` for reach
-        and contact IoU, ``verdict("below")`` for D2O and the two distances (:data:`BETTER`).
+        threshold (0-1), the median of the scenes' D2O differences (m), the mean skeleton distance (m),
+        the mean pose-only distance (m) and the mean contact IoU. "Ours is better" reads ``verdict("above")``
+        for reach and contact IoU, ``verdict("below")`` for D2O and the two distances (:data:`BETTER`).
     """
     if n_scenes is None:
         if len(ours) != len(theirs):

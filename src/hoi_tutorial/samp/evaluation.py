@@ -127,7 +127,7 @@ def precision_summary(execution_time, position_error, rotation_error, reached) -
 def paired_over_acted(a, b, measure: str, **kwargs):
     """``a`` minus ``b`` in ``measure`` (``"position_error"``, ``"rotation_error"`` or ``"execution_time"``),
     paired run by run over the runs of the same tasks where both performed the action: an
-    :class:`~hoi_tutorial.intervals.Interval` (paired bootstrap; ``kwargs`` go to
+    :class:`~hoi_tutorial.intervals.Interval` (paired; ``kwargs`` go to
     ``intervals.paired_difference``), or None when fewer than two runs acted in both.
 
     ``a`` and ``b`` are :class:`GoalRunResults` (or room runs), or equally long sequences of them, one pair per set
