@@ -312,6 +312,12 @@ def test_an_edited_module_rebuilds(tmp_path):
     again = load_or_build("produced", {"n": 3}, build, code=(module,), verbose=False)
     np.testing.assert_array_equal(first, again)
     assert len(calls) == 1
+    # comments, docstrings and blank lines are not code: the artifact is loaded, not built again
+    source.write_text('"""Makes a range."""\nimport numpy as np\n\n\ndef make():\n    """Three numbers."""\n'
+                      "    return np.arange(3)  # 0, 1, 2\n\n")
+    module = _import_from(source, "toy_producer_v1_prose")
+    np.testing.assert_array_equal(load_or_build("produced", {"n": 3}, build, code=(module,), verbose=False), first)
+    assert len(calls) == 1
     source.write_text("import numpy as np\n\ndef make():\n    return np.arange(3) * 10\n")
     module = _import_from(source, "toy_producer_v2")
     edited = load_or_build("produced", {"n": 3}, build, code=(module,), verbose=False)
@@ -349,6 +355,23 @@ def test_checksum_and_key_mismatches_are_rebuilt(isolated_cache):
     with pytest.warns(CorruptArtifactWarning, match="key"):
         load_or_build("checked", {}, build, verbose=False)
     assert len(calls) == 3
+
+
+def test_a_new_cache_format_gives_new_keys_and_an_earlier_formats_file_is_rebuilt(isolated_cache, monkeypatch):
+    # A format bump (what a key hashes changed its meaning) must rebuild every artifact once, never reuse one.
+    key = artifact_key("formatted", {"n": 1}, (_producer_a,))
+    with monkeypatch.context() as patch:
+        patch.setattr(cache_module, "FORMAT", cache_module.FORMAT - 1)
+        assert artifact_key("formatted", {"n": 1}, (_producer_a,)) != key
+    build, calls = _counting(lambda: {"w": torch.zeros(2)})
+    load_or_build("formatted", {}, build, verbose=False)
+    (path,) = isolated_cache.glob("formatted-*.pt")
+    blob = torch.load(path, weights_only=True)
+    blob["format"] = cache_module.FORMAT - 1  # a file written by the library before the bump, under the same name
+    torch.save(blob, path)
+    with pytest.warns(CorruptArtifactWarning, match="unknown file format"):
+        load_or_build("formatted", {}, build, verbose=False)
+    assert len(calls) == 2
 
 
 _EXECUTED = []

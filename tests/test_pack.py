@@ -155,6 +155,27 @@ def test_make_pack_needs_artifacts_that_record_their_modules(tmp_path):
                tmp_path / "old-0123456789abcdef.pt")
     with pytest.raises(ValueError, match="records the library modules it ran"):
         pack.make_pack(tmp_path / "p.zip", tmp_path, scale="toy", seed=0)
+    # an artifact of an earlier cache format records digests of another meaning (the raw bytes of format 1)
+    torch.save({"format": cache.FORMAT - 1, "key": "0" * 64, "payload": {}, "checksum": "",
+                "modules": {"hoi_tutorial.infra.cache": "0" * 64}}, tmp_path / "old-0123456789abcdef.pt")
+    with pytest.raises(ValueError, match="rebuild it in an empty cache"):
+        pack.make_pack(tmp_path / "p.zip", tmp_path, scale="toy", seed=0)
+
+
+def test_a_pack_of_an_earlier_format_is_refused_even_where_its_digests_match(tmp_path, monkeypatch, toy_library):
+    # Format 1 recorded digests of the modules' raw bytes: a pack of it is refused whole, not checked module by module.
+    _, data, other = toy_library
+    _book_run(tmp_path / "run", monkeypatch, data, other)
+    manifest = pack.make_pack(tmp_path / "p.zip", tmp_path / "run", scale="toy", seed=0)
+    earlier = tmp_path / "earlier.zip"
+    with zipfile.ZipFile(tmp_path / "p.zip") as source, zipfile.ZipFile(earlier, "w") as target:
+        for item in source.infolist():
+            target.writestr(item, source.read(item) if item.filename != "manifest.json"
+                            else json.dumps(dict(manifest, format=pack.PACK_FORMAT - 1)))
+    with pytest.raises(pack.PackMismatchError, match=f"format {pack.PACK_FORMAT}, got package 'hoi_tutorial', "
+                                                     f"format {pack.PACK_FORMAT - 1}"):
+        pack.unpack(earlier, tmp_path / "reader", verbose=False)
+    assert not (tmp_path / "reader").exists()  # refused before anything is written
 
 
 def test_use_pretrained_reads_the_chapter_parameter(tmp_path, monkeypatch):

@@ -17,6 +17,7 @@ from .parallel import available_cores, warm_cache
 from .progress import progress_enabled, show_progress
 from .presets import SCALES, by_scale, check_scale, scaled_config
 from .seeding import check_seed, rng, seed_everything
+from .cleaned_source import source_digest
 from .tables import format_seconds, side_by_side
 from .training import (TrainedModel, TrainerConfig, TrainResult, learning_rate_factor, move_to_device, train,
                        trainer_config)
@@ -26,7 +27,7 @@ __all__ = [
     "check_seed", "rng", "seed_everything",
     "choose_device", "one_thread", "single_threaded", "threads_allowed", "available_cores", "warm_cache",
     "CorruptArtifactWarning", "NotCachedError", "cache_only", "artifact_key", "artifact_path", "cache_dir", "clear_cache",
-    "load_or_build", "state_dict_to_cpu",
+    "load_or_build", "state_dict_to_cpu", "source_digest",
     "TrainerConfig", "TrainResult", "TrainedModel", "trainer_config", "learning_rate_factor", "move_to_device", "train",
     "format_seconds", "side_by_side", "show_progress", "progress_enabled",
     "PackMismatchError", "make_pack", "read_manifest", "release_pack_url", "unpack", "use_pretrained",

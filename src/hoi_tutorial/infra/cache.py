@@ -1,10 +1,12 @@
 """The artifact cache: build a data set or train a model once, reload it afterwards.
 
 An artifact is stored under a key made from its configuration *and* the source code that
-produced it, so changing either one rebuilds it instead of reusing a stale file. Files are
-written atomically (a temporary file in the same folder, then ``os.replace``), loaded with
-``torch.load(..., weights_only=True)`` (no arbitrary pickle is ever executed), and verified
-(key and checksum); a file that fails any check is reported and rebuilt.
+produced it, so changing either one rebuilds it instead of reusing a stale file. Comments,
+docstrings and blank lines do not count (``source_digest``): they change nothing an artifact
+is made of, so editing them alone rebuilds nothing. Files are written atomically (a temporary
+file in the same folder, then ``os.replace``), loaded with ``torch.load(..., weights_only=True)``
+(no arbitrary pickle is ever executed), and verified (key and checksum); a file that fails any
+check is reported and rebuilt.
 
 The folder is ``$HOI_CACHE`` when that is set, else ``$XDG_CACHE_HOME/hoi_tutorial``, else
 ``~/.cache/hoi_tutorial``.
@@ -45,6 +47,7 @@ import pathlib
 import re
 import tempfile
 import threading
+import tokenize
 import time
 import types
 import warnings
@@ -55,6 +58,7 @@ import numpy as np
 import torch
 
 from .code_closure import code_closure, module_file
+from .cleaned_source import source_digest
 
 __all__ = [
     "CorruptArtifactWarning",
@@ -71,7 +75,7 @@ __all__ = [
     "state_dict_to_cpu",
 ]
 
-FORMAT = 1
+FORMAT = 2  # 2: code is hashed without comments, docstrings and blank lines (source_digest)
 _NUMPY_TAG = "__hoi_numpy__"
 _NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,99}$")
 _PRIMITIVES = (bool, int, float, str, bytes, type(None))
@@ -170,53 +174,67 @@ def _code_fingerprint(code: types.CodeType) -> str:
     return "\n".join(parts)
 
 
-def _module_text(module: types.ModuleType) -> bytes:
-    """The file text of a module; every ``.py`` file (with its relative path) for a package."""
+def _file_source(path: pathlib.Path) -> str:
+    """The text of a Python file as Python reads it (its encoding line, universal newlines); a file that is not
+    text in its encoding comes back one character per byte, so that its digest still follows every byte."""
+    try:
+        with tokenize.open(path) as handle:
+            return handle.read()
+    except (SyntaxError, UnicodeDecodeError):
+        return path.read_bytes().decode("latin-1")
+
+
+def _module_digest(module: types.ModuleType) -> str:
+    """The source digest of a module's file; of every ``.py`` file (named by its relative path) for a package."""
     if hasattr(module, "__path__"):
-        chunks = []
+        digests = []
         for root in sorted(set(module.__path__)):
             root_path = pathlib.Path(root)
             for file in sorted(root_path.rglob("*.py")):
                 if "__pycache__" in file.parts:
                     continue
-                chunks.append(file.relative_to(root_path).as_posix().encode() + b"\0")
-                chunks.append(file.read_bytes() + b"\0")
-        if chunks:
-            return b"".join(chunks)
+                digests.append(source_digest(_file_source(file), file.relative_to(root_path).as_posix()))
+        if digests:
+            return hashlib.sha256("\n".join(digests).encode()).hexdigest()
     try:
         filename = inspect.getsourcefile(module) or module.__file__
     except TypeError:
         filename = None
     if not filename or not os.path.exists(filename):
         raise TypeError(f"code: module {module.__name__!r} has no source file to hash")
-    return pathlib.Path(filename).read_bytes()
+    return source_digest(_file_source(pathlib.Path(filename)))
 
 
-def _source_text(item) -> bytes:
+def _sha256(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _source_digest(item) -> str:
+    """The sha256 hex of an item of ``code``: of its source text without comments, docstrings and blank lines."""
     if isinstance(item, types.ModuleType):
-        return _module_text(item)
+        return _module_digest(item)
     if isinstance(item, functools.partial):
-        return _source_text(item.func)
+        return _source_digest(item.func)
     if isinstance(item, types.MethodType):
-        return _source_text(item.__func__)
+        return _source_digest(item.__func__)
     if isinstance(item, (types.FunctionType, type)):
         try:
-            return inspect.getsource(item).encode()
+            return source_digest(inspect.getsource(item))  # a method's indented text is cleaned dedented
         except (OSError, TypeError):
             pass
         # No source text (an interactive session, exec): fall back to the compiled code.
         if isinstance(item, types.FunctionType):
-            return _code_fingerprint(item.__code__).encode()
+            return _sha256(_code_fingerprint(item.__code__))
         parts = [item.__qualname__]
         for attr, value in sorted(vars(item).items()):
             func = getattr(value, "__func__", value)
             if isinstance(func, types.FunctionType):
                 parts.append(attr + "\n" + _code_fingerprint(func.__code__))
-        return "\n".join(parts).encode()
+        return _sha256("\n".join(parts))
     if callable(item):
         if isinstance(item, types.BuiltinFunctionType):
-            return f"builtin:{item.__module__}.{item.__qualname__}".encode()
-        return _source_text(type(item))
+            return _sha256(f"builtin:{item.__module__}.{item.__qualname__}")
+        return _source_digest(type(item))
     raise TypeError(
         f"code: expected functions, classes or modules, got {type(item).__name__} {item!r}"
     )
@@ -250,11 +268,17 @@ def derived_code(code: Iterable) -> list[str]:
 
 
 def module_digests(modules: Iterable[str]) -> dict:
-    """``{module: sha256 hex}`` of the installed source of each library module (its name and file text): what
-    :func:`artifact_key` hashes for the modules an artifact runs, and what a pretrained pack records for each
-    artifact so that it can tell whether the installed code is the code that built it."""
-    return {module: hashlib.sha256(module.encode() + b"\0" + module_file(module).read_bytes()).hexdigest()
-            for module in sorted(modules)}
+    """``{module: sha256 hex}`` of the installed source of each library module (its name and file text, without
+    comments, docstrings and blank lines: ``source_digest``): what :func:`artifact_key` hashes for the modules an
+    artifact runs, and what a pretrained pack records for each artifact so that it can tell whether the installed
+    code is the code that built it."""
+    digests = {}
+    for module in sorted(modules):
+        path = module_file(module)
+        if path is None:
+            raise ValueError(f"modules: {module!r} has no source file to hash")
+        digests[module] = source_digest(_file_source(path), module)
+    return digests
 
 
 def artifact_key(name: str, config, code: Iterable = ()) -> str:
@@ -271,7 +295,7 @@ def artifact_key(name: str, config, code: Iterable = ()) -> str:
     """
     _check_name(name)
     code = tuple(code)
-    digests = {hashlib.sha256(_source_text(item)).hexdigest() for item in code}
+    digests = {_source_digest(item) for item in code}
     digests.update(module_digests(derived_code(code)).values())
     digests = sorted(digests)
     document = {"format": FORMAT, "name": name, "config": _canonical(config, "config"),

@@ -3,10 +3,10 @@
 A chapter opened alone in a fresh runtime builds everything before it (data, models, evaluations): minutes to tens of
 minutes on a laptop. A *pack* holds what ``make artifacts`` built (every chapter at one scale and seed) with a
 manifest: the package version, the scale and seed, and for each artifact file its SHA-256 and the library modules it
-ran with their SHA-256 (what :func:`~hoi_tutorial.infra.cache.load_or_build` records). :func:`unpack` copies into the
-cache only the artifacts whose modules are, to the byte, the installed ones, so a pack never stands in for code it was
-not built from: a pack built before a library edit is refused for what the edit touches, and refused as a whole when
-that is everything.
+ran with the SHA-256 of their source (what :func:`~hoi_tutorial.infra.cache.load_or_build` records). :func:`unpack`
+copies into the cache only the artifacts whose modules are the installed ones, comments, docstrings and blank lines
+aside (``cache.module_digests``), so a pack never stands in for code it was not built from: a pack built before a
+library edit is refused for what the edit touches, and refused as a whole when that is everything.
 
 Typical use (a chapter's ``PRETRAINED`` parameter does this in its third cell)::
 
@@ -32,7 +32,7 @@ from typing import Optional, Union
 import torch
 
 from .cache import FORMAT as CACHE_FORMAT
-from .cache import cache_dir
+from .cache import cache_dir, module_digests
 from .code_closure import module_file
 from .presets import check_scale
 from .seeding import check_seed
@@ -40,7 +40,7 @@ from .seeding import check_seed
 __all__ = ["PACK_FORMAT", "PackMismatchError", "UnpackReport", "pack_name", "release_pack_url", "make_pack",
            "read_manifest", "unpack", "use_pretrained"]
 
-PACK_FORMAT = 1
+PACK_FORMAT = 2  # 2: the module digests ignore comments, docstrings and blank lines (cache.FORMAT 2)
 MANIFEST = "manifest.json"
 # The cache's own file names (cache.artifact_path): nothing else is ever written from a pack.
 _ARTIFACT_FILE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,99}-[0-9a-f]{16}\.pt$")
@@ -92,10 +92,9 @@ def _sha256_file(path: pathlib.Path) -> str:
 
 def _installed_digest(module: str) -> Optional[str]:
     """What ``cache.module_digests`` gives for ``module`` in the installed library (``None``: no such module)."""
-    path = module_file(module)
-    if path is None:
+    if module_file(module) is None:
         return None
-    return hashlib.sha256(module.encode() + b"\0" + path.read_bytes()).hexdigest()
+    return module_digests([module])[module]
 
 
 # ----------------------------------------------------------------------------------------------

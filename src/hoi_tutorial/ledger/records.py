@@ -20,6 +20,7 @@ from typing import Mapping, Optional, Sequence
 import numpy as np
 
 from ..infra.cache import cache_dir
+from ..infra.cleaned_source import source_digest
 from ..intervals import VERDICTS
 from .claims import CLAIMS, PAPERS, Claim, claim
 
@@ -137,15 +138,15 @@ def chapter_digest(chapter: str) -> Optional[str]:
 @functools.lru_cache(maxsize=None)
 def _library_digest(stamp) -> str:
     digest = hashlib.sha256()
-    for path, _ in stamp:
-        digest.update(str(path.relative_to(_PACKAGE)).encode("utf-8"))
-        digest.update(path.read_bytes())
+    for path, _ in stamp:   # each file by what it runs, as the artifact cache keys it (comments and docstrings aside)
+        digest.update(source_digest(path.read_text(encoding="utf-8"), path.relative_to(_PACKAGE).as_posix()).encode())
     return digest.hexdigest()
 
 
 def library_digest() -> str:
     """SHA-256 of the library's source (every ``.py`` file of ``hoi_tutorial`` except this ledger package,
-    which computes nothing a claim depends on)."""
+    which computes nothing a claim depends on), comments, docstrings and blank lines aside
+    (:func:`hoi_tutorial.infra.source_digest`): a record goes stale when the code changes, not its prose."""
     files = sorted(p for p in _PACKAGE.rglob("*.py") if "ledger" not in p.relative_to(_PACKAGE).parts)
     return _library_digest(tuple((p, p.stat().st_mtime_ns) for p in files))
 
