@@ -325,6 +325,18 @@ def test_an_edited_module_rebuilds(tmp_path):
     np.testing.assert_array_equal(edited, [0, 10, 20])
 
 
+def test_the_caches_own_modules_are_left_out_of_every_key():
+    # Every builder imports the cache, which decides how an artifact is stored, not what it holds: mending it (a
+    # full disk, a lock) must rebuild nothing. A real builder's import closure reaches it; its key does not.
+    from hoi_tutorial.choice.planner import latent_map
+    from hoi_tutorial.infra.code_closure import code_closure
+
+    reached = set(code_closure(latent_map.__name__))
+    assert cache_module.STORAGE_MODULES <= reached
+    hashed = set(cache_module.derived_code([latent_map]))
+    assert hashed == reached - cache_module.STORAGE_MODULES and latent_map.__name__ in hashed
+
+
 @pytest.mark.parametrize("damage", ["truncate", "garbage", "empty"])
 def test_a_corrupt_file_is_detected_and_rebuilt(isolated_cache, damage):
     build, calls = _counting(lambda: {"w": torch.randn(50, generator=torch.Generator().manual_seed(0))})

@@ -29,7 +29,8 @@ Typical use in a chapter::
 it. ``build`` is always part of ``code``, and every library module that an item of ``code`` is
 defined in, or imports, transitively, counts as well (``code_closure``): an edit to a function a
 builder reaches only through another module rebuilds the artifact. ``code`` then lists only what
-imports cannot show. Artifacts are nested dicts, lists and tuples of
+imports cannot show. The cache's own modules (``STORAGE_MODULES``) are left out: they decide how
+an artifact is stored, not what it holds, and a change to that bumps ``FORMAT``. Artifacts are nested dicts, lists and tuples of
 torch tensors, numpy arrays and python scalars / strings / ``None``; what comes back is
 always on the CPU and identical whether it was just built or loaded.
 """
@@ -69,13 +70,14 @@ __all__ = [
     "module_digests",
     "derived_code",
     "DERIVED_PACKAGES",
+    "STORAGE_MODULES",
     "artifact_path",
     "load_or_build",
     "clear_cache",
     "state_dict_to_cpu",
 ]
 
-FORMAT = 2  # 2: code is hashed without comments, docstrings and blank lines (source_digest)
+FORMAT = 2  # 2: code hashed without comments, docstrings and blank lines (source_digest), the cache's own left out
 _NUMPY_TAG = "__hoi_numpy__"
 _NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,99}$")
 _PRIMITIVES = (bool, int, float, str, bytes, type(None))
@@ -242,6 +244,10 @@ def _source_digest(item) -> str:
 
 # Packages whose code is followed through its imports (``code_closure``): the library's own.
 DERIVED_PACKAGES = {__name__.split(".")[0]}
+# The cache's own machinery: every builder imports it, yet it decides how an artifact is stored and keyed, not what
+# the artifact holds. Left out of every key, so that mending it (a full disk, a lock) rebuilds nothing; a change to
+# how artifacts are stored or keyed bumps FORMAT instead, which moves every key at once.
+STORAGE_MODULES = frozenset({__name__, f"{__package__}.code_closure", f"{__package__}.cleaned_source"})
 
 
 def _module_name_of(item) -> str | None:
@@ -257,14 +263,14 @@ def _module_name_of(item) -> str | None:
 
 def derived_code(code: Iterable) -> list[str]:
     """The library modules the items of ``code`` run: each item's defining module and every library module it
-    imports, transitively (``code_closure``), sorted. Items defined outside ``DERIVED_PACKAGES`` (a notebook's
-    cell, a test) add none: their own source text is hashed as given."""
+    imports, transitively (``code_closure``), sorted, less the cache's own :data:`STORAGE_MODULES`. Items defined
+    outside ``DERIVED_PACKAGES`` (a notebook's cell, a test) add none: their own source text is hashed as given."""
     modules = set()
     for item in code:
         module = _module_name_of(item)
         if module and module.split(".")[0] in DERIVED_PACKAGES:
             modules.update(code_closure(module))
-    return sorted(modules)
+    return sorted(modules - STORAGE_MODULES)
 
 
 def module_digests(modules: Iterable[str]) -> dict:
