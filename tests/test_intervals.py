@@ -358,3 +358,13 @@ def test_a_claim_that_allows_a_tie_fails_only_wholly_on_the_other_side():
     assert tie.verdict("above") == "inconclusive" and tie.verdict("above", strict=False) == "held"
     assert straddles.verdict("above", strict=False) == "held"
     assert below.verdict("above", strict=False) == "not held" and below.verdict("below", strict=False) == "held"
+
+
+def test_verdict_within_a_margin_is_an_equivalence_check():
+    inside = Interval(0.01, -0.02, 0.03, 0.95, 20, "test")
+    assert inside.verdict_within(0.05) == "held" and inside.verdict_within(0.025) == "inconclusive"
+    assert Interval(0.3, 0.2, 0.4, 0.95, 20, "test").verdict_within(0.1) == "not held"
+    assert Interval(0.0, -math.inf, math.inf, 0.95, 5, "test").verdict_within(1.0) == "inconclusive"
+    assert inside.verdict_within(0.05, centre=1.0) == "not held"
+    with pytest.raises(ValueError, match="margin"):
+        inside.verdict_within(-1.0)

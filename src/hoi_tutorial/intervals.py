@@ -85,6 +85,20 @@ class Interval:
             return "inconclusive"
         return "held" if side == claimed else "not held"
 
+    def verdict_within(self, margin: float, centre: float = 0.0) -> str:
+        """Whether the statistic stays within ``centre ± margin`` ("relatively stable"): an equivalence check.
+
+        ``"held"`` when the whole interval lies within the margin, ``"not held"`` when it lies wholly outside,
+        ``"inconclusive"`` otherwise (a wide interval cannot show that a difference is small).
+        """
+        if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin >= 0):
+            raise ValueError(f"margin: expected a finite number >= 0, got {margin!r}")
+        if centre - margin <= self.low and self.high <= centre + margin:
+            return "held"
+        if self.low > centre + margin or self.high < centre - margin:
+            return "not held"
+        return "inconclusive"
+
     def holds(self, claimed: str, threshold: float = 0.0) -> bool:
         """True when :meth:`verdict` is ``"held"``: the interval lies wholly on the claimed side."""
         return self.verdict(claimed, threshold) == "held"
