@@ -192,6 +192,16 @@ CLAIMS = (
     Claim("nifty.fig10_11.penetration_vs_approach", "NIFTY", "Supp. Figs. 10, 11",
           "penetration as a function of approach length N_A: NIFTY ahead of both baselines at every N_A",
           _FIGURE, "06_evaluating_nifty"),
+    Claim("nifty.fig5.user_study", "NIFTY", "Fig. 5, §4.4",
+          "people prefer NIFTY's motions to both baselines', and find them nearly indistinguishable from the "
+          "synthetic data (the book asks a classifier)",
+          "preferred in ≥ {sit} % of pairs (sit), ≥ {lift} % (lift) against the baselines; over both actions "
+          .format(**_N.FIG5_PREFERRED_FLOOR)
+          + ", ".join(f"{v} % against {k}" for k, v in _N.FIG5_PREFERRED_MEAN.items()), "06_evaluating_nifty"),
+    Claim("nifty.a1.data_realism", "NIFTY", "Supp. A.1, Fig. 8",
+          "the synthetic training data looks nearly as realistic as real mocap (the book asks a classifier)",
+          "Likert realism of sitting motions (1-5): " + ", ".join(f"{k} {v}" for k, v in _N.LIKERT_REALISM.items()),
+          "06_evaluating_nifty"),
     # -------------------------------------------------------------------------------------------------- SAMP
     Claim("samp.goalnet.error_and_diversity", "SAMP", "§5.2, GoalNet",
           "GoalNet reconstructs unseen goals closely and its sampled goals are diverse (APD)",
