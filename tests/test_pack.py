@@ -60,11 +60,19 @@ def test_a_pack_unpacked_into_an_empty_cache_is_loaded_without_building(tmp_path
     assert len(again.present) == 2 and not again.unpacked
 
 
-def test_files_that_deflate_well_are_deflated_and_the_rest_stored(tmp_path, monkeypatch):
+def test_files_that_deflate_well_are_deflated_and_the_rest_stored(tmp_path, monkeypatch, derived_package):
+    derived_package("deflpkg", {  # library code: an artifact a pack holds records the modules that built it
+        "deflpkg/__init__.py": "",
+        "deflpkg/arrays.py": "import numpy as np\n\n\n"
+                             "def floats():  # deflate gains little\n"
+                             "    noise = np.random.default_rng(0).standard_normal(200_000)\n"
+                             "    return {'x': noise.astype(np.float32)}\n\n\n"
+                             "def zeros():\n    return {'x': np.zeros(200_000, dtype=np.float32)}\n",
+    })
+    arrays = importlib.import_module("deflpkg.arrays")
     monkeypatch.setenv("HOI_CACHE", str(tmp_path / "run"))
-    noise = np.random.default_rng(0).standard_normal(200_000).astype(np.float32)  # floats: deflate gains little
-    load_or_build("floats", {}, lambda: {"x": noise}, verbose=False)
-    load_or_build("zeros", {}, lambda: {"x": np.zeros(200_000, dtype=np.float32)}, verbose=False)
+    load_or_build("floats", {}, arrays.floats, verbose=False)
+    load_or_build("zeros", {}, arrays.zeros, verbose=False)
     manifest = pack.make_pack(tmp_path / "p.zip", tmp_path / "run", scale="toy", seed=0)
     with zipfile.ZipFile(tmp_path / "p.zip") as archive:
         kinds = {info.filename.split("-")[0]: info.compress_type for info in archive.infolist()}
@@ -159,6 +167,11 @@ def test_make_pack_needs_artifacts_that_record_their_modules(tmp_path):
     torch.save({"format": cache.FORMAT - 1, "key": "0" * 64, "payload": {}, "checksum": "",
                 "modules": {"hoi_tutorial.infra.cache": "0" * 64}}, tmp_path / "old-0123456789abcdef.pt")
     with pytest.raises(ValueError, match="rebuild it in an empty cache"):
+        pack.make_pack(tmp_path / "p.zip", tmp_path, scale="toy", seed=0)
+    # one built from a notebook's code alone records no module: unpack could not check it against the installed code
+    torch.save({"format": cache.FORMAT, "key": "0" * 64, "payload": {}, "checksum": "", "modules": {}},
+               tmp_path / "old-0123456789abcdef.pt")
+    with pytest.raises(ValueError, match="it records none"):
         pack.make_pack(tmp_path / "p.zip", tmp_path, scale="toy", seed=0)
 
 

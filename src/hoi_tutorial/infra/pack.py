@@ -2,11 +2,20 @@
 
 A chapter opened alone in a fresh runtime builds everything before it (data, models, evaluations): minutes to tens of
 minutes on a laptop. A *pack* holds what ``make artifacts`` built (every chapter at one scale and seed) with a
-manifest: the package version, the scale and seed, and for each artifact file its SHA-256 and the library modules it
-ran with the SHA-256 of their source (what :func:`~hoi_tutorial.infra.cache.load_or_build` records). :func:`unpack`
-copies into the cache only the artifacts whose modules are the installed ones, comments, docstrings and blank lines
-aside (``cache.module_digests``), so a pack never stands in for code it was not built from: a pack built before a
-library edit is refused for what the edit touches, and refused as a whole when that is everything.
+manifest: the package version, the scale and seed, and for each artifact file its size, its SHA-256 and the library
+modules it ran with the SHA-256 of their source (what :func:`~hoi_tutorial.infra.cache.load_or_build` records).
+:func:`unpack` copies into the cache only the artifacts whose modules are the installed ones, comments, docstrings
+and blank lines aside (``cache.module_digests``), so a pack never stands in for code it was not built from: a pack
+built before a library edit is refused for what the edit touches, and refused as a whole when that is everything.
+
+A pack is untrusted input until checked:
+
+- the manifest (at most 16 MB) is checked against its schema (:func:`_validate_manifest`) and the zip against the
+  manifest: exactly its files, each of its declared size, in all below a cap and within the cache folder's free
+  space, before anything is decompressed; while extracting, a member that yields more bytes than declared (a zip
+  bomb lies in its headers) or other bytes than its SHA-256 is deleted and the pack refused;
+- what lands in the cache is read only by ``torch.load(..., weights_only=True)``, whose known flaws were mended in
+  torch 2.6 and 2.10 (hence ``torch>=2.10``).
 
 Typical use (a chapter's ``PRETRAINED`` parameter does this in its third cell)::
 
@@ -17,6 +26,7 @@ Nothing is downloaded unless asked: ``PRETRAINED = False`` (the default, and CI'
 """
 from __future__ import annotations
 
+import collections
 import dataclasses
 import datetime
 import hashlib
@@ -24,6 +34,7 @@ import json
 import os
 import pathlib
 import re
+import shutil
 import tempfile
 import zipfile
 import zlib
@@ -31,6 +42,7 @@ from typing import Optional, Union
 
 import torch
 
+from . import cache as _cache
 from .cache import FORMAT as CACHE_FORMAT
 from .cache import cache_dir, module_digests
 from .code_closure import module_file
@@ -47,9 +59,18 @@ _ARTIFACT_FILE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,99}-[0-9a-f]{16}\.pt$")
 # Where a release's pack is published (its assets), by version, scale and seed.
 RELEASE_URL = "https://github.com/hoi-tutorial/hoi_tutorial/releases/download/v{version}/{name}"
 
+# Limits on what a pack may ask of the reader's machine, checked before anything is decompressed.
+_MANIFEST_MAX_BYTES = 16 << 20  # a record is a name, a size and a digest per module: 16 MB holds thousands
+_PACK_MAX_BYTES = 64 << 30  # all artifacts together: about 50 times the toy pack (1.37 GB unpacked)
+_SPACE_MARGIN_BYTES, _SPACE_MARGIN_SHARE = 256 << 20, 0.05  # room left free on the cache's disk after unpacking
+_SHA256_HEX = re.compile(r"^[0-9a-f]{64}$")
+_MODULE_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*){0,15}$")
+_MEMBER_COMPRESSION = (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED)  # what make_pack writes
+
 
 class PackMismatchError(ValueError):
-    """A pack that cannot serve this installation: another scale or seed, or built from other code."""
+    """A pack that cannot serve this installation: another scale or seed, built from other code, or not what it
+    should be (a manifest off its schema, sizes that disagree or do not fit, another SHA-256)."""
 
 
 def _version() -> str:
@@ -116,12 +137,13 @@ def make_pack(path: Union[str, os.PathLike], cache: Union[str, os.PathLike, None
         the manifest (also stored in the pack as ``manifest.json``): ``format``, ``package``, ``version``,
         ``scale``, ``seed``, ``torch``, ``created``, ``files`` (one record per artifact file: ``name``,
         ``bytes``, ``sha256``, ``modules`` = {library module: sha256 of its source}) and, when given,
-        ``chapters``.
+        ``chapters``: the schema :func:`_validate_manifest` checks.
 
     Raises:
         FileNotFoundError: no cache folder or no artifact in it.
         ValueError: an artifact that does not record the modules it ran (built by an older library): rebuild it;
-            a chapter's file that the cache does not hold.
+            one that ran none (built from a notebook's code alone, which :func:`unpack` could not check against
+            the installed code); a chapter's file that the cache does not hold.
     """
     folder = pathlib.Path(cache) if cache is not None else cache_dir()
     if not folder.is_dir():
@@ -136,6 +158,10 @@ def make_pack(path: Union[str, os.PathLike], cache: Union[str, os.PathLike, None
         if not isinstance(blob, dict) or blob.get("format") != CACHE_FORMAT or not isinstance(modules, dict):
             raise ValueError(f"{file.name}: expected an artifact that records the library modules it ran "
                              "(built by this library's load_or_build); rebuild it in an empty cache")
+        if not modules:  # built from code outside the library (a notebook's cell): nothing to check it against
+            raise ValueError(f"{file.name}: expected an artifact that records the library modules it ran, it records "
+                             "none (built from code outside the library); delete it from the cache folder, or build "
+                             "it with library code")
         records.append({"name": file.name, "bytes": file.stat().st_size, "sha256": _sha256_file(file),
                         "modules": dict(sorted(modules.items()))})
     manifest = {
@@ -169,23 +195,221 @@ def make_pack(path: Union[str, os.PathLike], cache: Union[str, os.PathLike, None
 
 
 # ----------------------------------------------------------------------------------------------
-# reading and unpacking
+# reading a pack: the manifest against its schema, then the zip against the manifest
+
+
+def _shown(value, limit: int = 60) -> str:
+    """``repr(value)`` cut to ``limit`` characters: a manifest's values come from whoever made the pack."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _json_type(value) -> str:
+    """The JSON name of a parsed value's type, for messages."""
+    names = {dict: "object", list: "array", str: "string", bool: "boolean", int: "number", float: "number"}
+    return "null" if value is None else names.get(type(value), type(value).__name__)
+
+
+def _is_count(value) -> bool:
+    """A JSON integer >= 0 (``true`` is an int to Python, not to JSON)."""
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _is_text(value, limit: int = 200) -> bool:
+    return isinstance(value, str) and 0 < len(value) <= limit
+
+
+def _is_sha256(value) -> bool:
+    return isinstance(value, str) and bool(_SHA256_HEX.match(value))
+
+
+def _validate_header(manifest, where: str) -> None:
+    """The manifest's top level: a JSON object of this package and format, with the run's fields."""
+    if not isinstance(manifest, dict):
+        raise PackMismatchError(f"{where}: expected {MANIFEST} to hold a JSON object (what make_pack writes), "
+                                f"got a JSON {_json_type(manifest)}")
+    package, format_ = manifest.get("package"), manifest.get("format")
+    if package != "hoi_tutorial" or not _is_count(format_) or format_ != PACK_FORMAT:
+        raise PackMismatchError(f"{where}: expected a hoi_tutorial pack of format {PACK_FORMAT}, got package "
+                                f"{_shown(package)}, format {_shown(format_)}")
+    for key in ("version", "scale", "torch", "created"):
+        if not _is_text(manifest.get(key)):
+            raise PackMismatchError(f"{where}: {MANIFEST}: expected '{key}' to be a non-empty string of at most 200 "
+                                    f"characters, got {_shown(manifest.get(key))}")
+    if not _is_count(manifest.get("seed")):
+        raise PackMismatchError(f"{where}: {MANIFEST}: expected 'seed' to be an integer >= 0, got "
+                                f"{_shown(manifest.get('seed'))}")
+    if not isinstance(manifest.get("files"), list) or not manifest["files"]:
+        raise PackMismatchError(f"{where}: {MANIFEST}: expected 'files' to be a non-empty array of artifact "
+                                f"records, got {_shown(manifest.get('files'))}")
+
+
+def _validate_record(record, index: int, where: str, packages: frozenset) -> str:
+    """``files[index]`` of a manifest: its name, size, SHA-256 and the library modules that built it. Returns the
+    name (the artifact's file name in the pack and in the cache)."""
+    label = f"{where}: {MANIFEST} files[{index}]"
+    if not isinstance(record, dict):
+        raise PackMismatchError(f"{label}: expected a record (an object with name, bytes, sha256, modules), got a "
+                                f"JSON {_json_type(record)}")
+    if "name" not in record:
+        raise PackMismatchError(f"{label}: expected a 'name' (the artifact's file name), the record has none")
+    name = record["name"]
+    if not isinstance(name, str) or not _ARTIFACT_FILE.match(name):
+        raise PackMismatchError(f"{label}: 'name' {_shown(name)} is not an artifact file name (expected the "
+                                "cache's '<name>-<16 hex digits>.pt': no folder, no '..', no backslash)")
+    label = f"{label} ({name})"
+    if not _is_count(record.get("bytes")):
+        raise PackMismatchError(f"{label}: expected 'bytes' (the file's size) to be an integer >= 0, got "
+                                f"{_shown(record.get('bytes'))}")
+    if not _is_sha256(record.get("sha256")):
+        raise PackMismatchError(f"{label}: expected 'sha256' to be 64 lowercase hex digits, got "
+                                f"{_shown(record.get('sha256'))}")
+    modules = record.get("modules")
+    if not isinstance(modules, dict) or not modules:
+        raise PackMismatchError(f"{label}: expected 'modules' to be a non-empty object {{library module: SHA-256 "
+                                f"of its source}} (the code that built it, checked against the installed code), "
+                                f"got {_shown(modules)}")
+    for module, digest in modules.items():
+        if not (isinstance(module, str) and len(module) <= 200 and _MODULE_NAME.match(module)
+                and module.split(".")[0] in packages):
+            raise PackMismatchError(f"{label}: expected 'modules' to name modules of {', '.join(sorted(packages))}, "
+                                    f"got {_shown(module)}")
+        if not _is_sha256(digest):
+            raise PackMismatchError(f"{label}: expected modules[{module!r}] to be a SHA-256 digest (64 lowercase "
+                                    f"hex digits), got {_shown(digest)}")
+    return name
+
+
+def _validate_chapters(chapters, names: set, where: str) -> None:
+    """The manifest's optional ``chapters``: {chapter: [file names that ``files`` lists]}."""
+    if not isinstance(chapters, dict):
+        raise PackMismatchError(f"{where}: {MANIFEST}: expected 'chapters' to be an object {{chapter: [file "
+                                f"names]}}, got a JSON {_json_type(chapters)}")
+    for chapter, listed in chapters.items():
+        if not _is_text(chapter) or not isinstance(listed, list) or not all(isinstance(n, str) for n in listed):
+            raise PackMismatchError(f"{where}: {MANIFEST} chapters[{_shown(chapter)}]: expected an array of the "
+                                    f"manifest's file names, got {_shown(listed)}")
+        unknown = sorted(set(listed) - names)
+        if unknown:
+            raise PackMismatchError(f"{where}: {MANIFEST} chapters[{_shown(chapter)}]: expected file names that "
+                                    f"'files' lists, got {_shown(unknown[0])}")
+
+
+def _validate_manifest(manifest, where: str) -> dict:
+    """``manifest`` (parsed JSON) checked against the schema of what :func:`make_pack` writes; returns it.
+
+    The schema, as plain checks: an object with ``package`` ``"hoi_tutorial"``, ``format`` :data:`PACK_FORMAT`,
+    ``version``, ``scale``, ``torch`` and ``created`` non-empty strings, ``seed`` an integer >= 0, ``files`` a
+    non-empty array of records and, optionally, ``chapters`` ({chapter: [file names that ``files`` lists]}). A
+    record: ``name`` one of the cache's artifact file names (``<name>-<16 hex digits>.pt``: no folder, no ``..``,
+    no backslash), each once; ``bytes`` an integer >= 0; ``sha256`` 64 lowercase hex digits; ``modules`` a
+    non-empty {module: 64 hex digits} of modules of the packages whose code the cache follows
+    (``cache.DERIVED_PACKAGES``): checking a module imports its parent packages (``find_spec``), so a manifest
+    may name only the library's own. Keys the schema does not name are ignored: nothing reads them.
+
+    Raises:
+        PackMismatchError: the first departure, naming the pack (``where``), the record and what was expected.
+    """
+    _validate_header(manifest, where)
+    packages = frozenset(_cache.DERIVED_PACKAGES)
+    names = set()
+    for index, record in enumerate(manifest["files"]):
+        name = _validate_record(record, index, where, packages)
+        if name in names:
+            raise PackMismatchError(f"{where}: {MANIFEST} files[{index}] ({name}): expected each file once, it is "
+                                    "listed twice")
+        names.add(name)
+    if "chapters" in manifest:
+        _validate_chapters(manifest["chapters"], names, where)
+    return manifest
+
+
+def _check_member_kind(info: zipfile.ZipInfo, label: str) -> None:
+    """A member stored or deflated and not encrypted, as :func:`make_pack` writes them."""
+    if info.compress_type not in _MEMBER_COMPRESSION or info.flag_bits & 0x1:
+        raise PackMismatchError(f"{label}: expected a stored or deflated, unencrypted zip member (as make_pack "
+                                f"writes), got compression method {info.compress_type}"
+                                f"{', encrypted' if info.flag_bits & 0x1 else ''}")
+
+
+def _check_members(archive: zipfile.ZipFile, manifest: dict, where: str) -> None:
+    """The zip against its validated manifest, before anything is decompressed: exactly ``manifest.json`` and the
+    listed files, each of its declared size (``ZipInfo.file_size``, the size the zip promises to inflate to), all
+    together at most :data:`_PACK_MAX_BYTES`."""
+    members = {info.filename: info for info in archive.infolist()}
+    listed = {record["name"] for record in manifest["files"]}
+    extra = sorted(set(members) - listed - {MANIFEST})
+    if extra:
+        raise PackMismatchError(f"{where}: holds {_shown(extra[0])}, which its {MANIFEST} does not list (expected "
+                                f"only {MANIFEST} and the files it lists)")
+    for index, record in enumerate(manifest["files"]):
+        name, declared = record["name"], record["bytes"]
+        label = f"{where}: {MANIFEST} files[{index}] ({name})"
+        info = members.get(name)
+        if info is None:
+            raise PackMismatchError(f"{label}: expected the zip to hold it, it does not (an incomplete pack)")
+        if info.file_size != declared:
+            raise PackMismatchError(f"{label}: declares {declared} bytes, the zip's entry {info.file_size} "
+                                    "(expected them equal)")
+        _check_member_kind(info, label)
+    total = sum(record["bytes"] for record in manifest["files"])
+    if total > _PACK_MAX_BYTES:
+        raise PackMismatchError(f"{where}: its files declare {total / 1e9:.1f} GB in all; expected at most "
+                                f"{_PACK_MAX_BYTES / 1e9:.1f} GB")
+
+
+def _open_pack(path: pathlib.Path) -> zipfile.ZipFile:
+    """``path`` opened as a zip file, or a :class:`PackMismatchError` that says it is none."""
+    try:
+        return zipfile.ZipFile(path)
+    except (FileNotFoundError, PermissionError, IsADirectoryError):
+        raise
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, ValueError, OSError) as exc:
+        raise PackMismatchError(f"{path}: expected a pretrained pack (a zip file with {MANIFEST}), could not read "
+                                f"it ({type(exc).__name__}: {_shown(str(exc), 120)})") from None
+
+
+def _manifest_of(archive: zipfile.ZipFile, where: str) -> dict:
+    """The manifest of the open pack ``archive``, read within :data:`_MANIFEST_MAX_BYTES`, validated
+    (:func:`_validate_manifest`) and checked against the zip's members (:func:`_check_members`)."""
+    names = archive.namelist()
+    if len(set(names)) != len(names):  # a reader would see one of the two, a checker perhaps the other
+        twice = next(name for name, count in collections.Counter(names).items() if count > 1)
+        raise PackMismatchError(f"{where}: expected each zip member once, it holds {_shown(twice)} twice")
+    if MANIFEST not in names:
+        raise PackMismatchError(f"{where}: expected a pretrained pack (a zip file with {MANIFEST}), it has no "
+                                f"{MANIFEST}")
+    info = archive.getinfo(MANIFEST)
+    _check_member_kind(info, f"{where}: {MANIFEST}")
+    if info.file_size > _MANIFEST_MAX_BYTES:
+        raise PackMismatchError(f"{where}: {MANIFEST} declares {info.file_size} bytes; expected at most "
+                                f"{_MANIFEST_MAX_BYTES} (a manifest is kilobytes)")
+    try:
+        with archive.open(info) as member:
+            text = member.read(_MANIFEST_MAX_BYTES + 1)  # bounded whatever the header says
+        manifest = json.loads(text)
+    except (zipfile.BadZipFile, zlib.error, EOFError, ValueError, RecursionError) as exc:
+        raise PackMismatchError(f"{where}: expected {MANIFEST} to be readable JSON, could not read it "
+                                f"({type(exc).__name__}: {_shown(str(exc), 120)})") from None
+    manifest = _validate_manifest(manifest, where)
+    _check_members(archive, manifest, where)
+    return manifest
 
 
 def read_manifest(path: Union[str, os.PathLike]) -> dict:
-    """The manifest of the pack file ``path``, checked to be one this library can read."""
+    """The manifest of the pack file ``path``, checked against its schema (:func:`_validate_manifest`), with the
+    zip checked against it (:func:`_check_members`); no artifact is decompressed.
+
+    Raises:
+        PackMismatchError: not a zip, no readable manifest, or a departure from the schema, saying what was expected.
+    """
     path = pathlib.Path(path)
-    try:
-        with zipfile.ZipFile(path) as archive:
-            manifest = json.loads(archive.read(MANIFEST))
-    except (zipfile.BadZipFile, KeyError, json.JSONDecodeError) as exc:
-        raise PackMismatchError(f"{path}: expected a pretrained pack (a zip file with {MANIFEST}), "
-                                f"could not read it ({type(exc).__name__}: {exc})") from None
-    if not isinstance(manifest, dict) or manifest.get("package") != "hoi_tutorial" \
-            or manifest.get("format") != PACK_FORMAT:
-        raise PackMismatchError(f"{path}: expected a hoi_tutorial pack of format {PACK_FORMAT}, got package "
-                                f"{manifest.get('package')!r}, format {manifest.get('format')!r}")
-    return manifest
+    with _open_pack(path) as archive:
+        return _manifest_of(archive, path.name)
+
+
+# ----------------------------------------------------------------------------------------------
+# fetching and unpacking
 
 
 @dataclasses.dataclass
@@ -235,14 +459,92 @@ def _fetch(source: str, sha256: Optional[str]) -> pathlib.Path:
     return path
 
 
+def _check_run(manifest: dict, scale: Optional[str], seed: Optional[int], where: str) -> None:
+    """Refuse a pack built for another scale or seed than the reader's (its artifacts would never be loaded)."""
+    for what, ours in (("scale", None if scale is None else check_scale(scale)),
+                       ("seed", None if seed is None else check_seed(seed))):
+        if ours is not None and manifest[what] != ours:
+            raise PackMismatchError(f"{where} holds {what} {manifest[what]!r} artifacts; this chapter runs {what} "
+                                    f"{ours!r}: set PRETRAINED = False, or use a pack built for it")
+
+
+def _to_unpack(records: list, folder: pathlib.Path, report: UnpackReport) -> list:
+    """The records to copy into ``folder``; the others go into ``report``: ``stale`` where a module's installed
+    source differs from the pack's, ``present`` where the identical file is there already."""
+    installed, chosen = {}, []
+    for record in records:
+        name = record["name"]
+        differing = []
+        for module, digest in record["modules"].items():
+            if module not in installed:
+                installed[module] = _installed_digest(module)
+            if installed[module] != digest:
+                differing.append(module)
+        if differing:
+            report.stale[name] = differing
+        elif (folder / name).exists() and _sha256_file(folder / name) == record["sha256"]:
+            report.present.append(name)
+        else:
+            chosen.append(record)
+    return chosen
+
+
+def _megabytes(count: int) -> str:
+    return f"{count / 1e6:,.1f} MB"
+
+
+def _check_space(folder: pathlib.Path, needed: int, where: str) -> None:
+    """Refuse to unpack ``needed`` bytes into ``folder`` unless its disk keeps a margin free afterwards (5 %, at
+    least 256 MB): a refusal now says more than a full disk in the middle of a chapter."""
+    if not needed:
+        return
+    free = shutil.disk_usage(folder).free
+    margin = max(_SPACE_MARGIN_BYTES, int(_SPACE_MARGIN_SHARE * needed))
+    if needed + margin > free:
+        raise PackMismatchError(f"{where}: unpacking needs {_megabytes(needed)} in {folder}, with {_megabytes(margin)}"
+                                f" left free after it; its disk has {_megabytes(free)} free. Free some space, set "
+                                "HOI_CACHE to a folder on a disk with room, or set PRETRAINED = False")
+
+
+def _extract(archive: zipfile.ZipFile, record: dict, folder: pathlib.Path, where: str) -> None:
+    """Copy the member ``record["name"]`` into ``folder`` through a temporary file, counting its bytes: a member
+    that yields more than its declared ``bytes`` (a zip bomb's header lies), fails to inflate or differs from its
+    ``sha256`` is deleted and refused before it takes the artifact's place."""
+    name, declared = record["name"], record["bytes"]
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}.", suffix=".tmp")
+    try:
+        digest, written = hashlib.sha256(), 0
+        with os.fdopen(fd, "wb") as out, archive.open(name) as member:
+            for block in iter(lambda: member.read(1 << 20), b""):
+                written += len(block)
+                if written > declared:
+                    raise PackMismatchError(f"{where}: {name} inflates to more than the {declared} bytes its "
+                                            "manifest declares (a zip bomb, or a damaged pack); refusing the pack")
+                digest.update(block)
+                out.write(block)
+        if written != declared or digest.hexdigest() != record["sha256"]:
+            raise PackMismatchError(f"{where}: {name} does not match its SHA-256 in the manifest "
+                                    f"({written} of {declared} bytes; a damaged pack): download it again")
+        os.replace(tmp, folder / name)
+    except (zipfile.BadZipFile, zlib.error, EOFError) as exc:  # a CRC that fails, a truncated stream, ...
+        pathlib.Path(tmp).unlink(missing_ok=True)
+        raise PackMismatchError(f"{where}: could not inflate {name} ({type(exc).__name__}: {_shown(str(exc), 120)}; "
+                                "a damaged pack): download it again") from None
+    except BaseException:
+        pathlib.Path(tmp).unlink(missing_ok=True)
+        raise
+
+
 def unpack(source: Union[str, os.PathLike], cache: Union[str, os.PathLike, None] = None, *,
            scale: Optional[str] = None, seed: Optional[int] = None, sha256: Optional[str] = None,
            chapter: Optional[str] = None, verbose: bool = True) -> UnpackReport:
     """Unpack the pack ``source`` (a path or URL) into the cache folder ``cache`` (default: the cache).
 
-    Only artifacts whose recorded modules all have, installed, the same source (SHA-256) are copied; each file is
-    checked against the manifest's SHA-256 before it is moved into place, and an identical file already there is
-    left alone.
+    Only artifacts whose recorded modules all have, installed, the same source (SHA-256) are copied; an identical
+    file already there is left alone. Before anything is decompressed the manifest is checked against its schema
+    and the zip against the manifest (:func:`read_manifest`), and the space the copies need against the free space
+    of ``cache``'s disk; each copy is counted against its declared size and checked against its SHA-256 before it
+    is moved into place.
 
     Args:
         scale, seed: the reader's; a pack built for others is refused (its artifacts would never be loaded).
@@ -252,64 +554,34 @@ def unpack(source: Union[str, os.PathLike], cache: Union[str, os.PathLike, None]
             list the chapter.
 
     Raises:
-        PackMismatchError: another scale or seed, a file that fails its hash, or no artifact that matches the
-            installed code (a pack built from other code), with what differs.
+        PackMismatchError: a file with another SHA-256, a manifest or zip that departs from the schema, another
+            scale or seed, too little free space, a file that inflates past its size or fails its hash, or no
+            artifact that matches the installed code (a pack built from other code), with what differs.
+        FileNotFoundError: no such file, or a download that failed.
     """
     path = _fetch(str(source), sha256)
-    manifest = read_manifest(path)
-    for what, ours in (("scale", None if scale is None else check_scale(scale)),
-                       ("seed", None if seed is None else check_seed(seed))):
-        if ours is not None and manifest.get(what) != ours:
-            raise PackMismatchError(f"{path.name} holds {what} {manifest.get(what)!r} artifacts; this chapter "
-                                    f"runs {what} {ours!r}: set PRETRAINED = False, or use a pack built for it")
-    folder = pathlib.Path(cache) if cache is not None else cache_dir()
-    folder.mkdir(parents=True, exist_ok=True)
-    installed = {}
-    report = UnpackReport(source=path.name, version=str(manifest.get("version")), unpacked=[], present=[], stale={})
-    records = manifest["files"]
-    wanted = manifest.get("chapters", {}).get(chapter) if chapter is not None else None
-    if wanted is not None:
-        wanted = set(wanted)
-        records = [record for record in records if record["name"] in wanted]
-        report.chapter = chapter
-    with zipfile.ZipFile(path) as archive:
-        for record in records:
-            name = record["name"]
-            if not _ARTIFACT_FILE.match(name):
-                raise PackMismatchError(f"{path.name}: {name!r} is not an artifact file name; refusing the pack")
-            differing = []
-            for module, digest in record["modules"].items():
-                if module not in installed:
-                    installed[module] = _installed_digest(module)
-                if installed[module] != digest:
-                    differing.append(module)
-            if differing:
-                report.stale[name] = differing
-                continue
-            target = folder / name
-            if target.exists() and _sha256_file(target) == record["sha256"]:
-                report.present.append(name)
-                continue
-            fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}.", suffix=".tmp")
-            try:
-                digest = hashlib.sha256()
-                with os.fdopen(fd, "wb") as out, archive.open(name) as member:
-                    for block in iter(lambda: member.read(1 << 20), b""):
-                        digest.update(block)
-                        out.write(block)
-                if digest.hexdigest() != record["sha256"]:
-                    raise PackMismatchError(f"{path.name}: {name} does not match its SHA-256 in the manifest "
-                                            "(a damaged pack): download it again")
-                os.replace(tmp, target)
-            except BaseException:
-                pathlib.Path(tmp).unlink(missing_ok=True)
-                raise
-            report.unpacked.append(name)
+    with _open_pack(path) as archive:
+        manifest = _manifest_of(archive, path.name)
+        _check_run(manifest, scale, seed, path.name)
+        folder = pathlib.Path(cache) if cache is not None else cache_dir()
+        folder.mkdir(parents=True, exist_ok=True)
+        report = UnpackReport(source=path.name, version=manifest["version"], unpacked=[], present=[], stale={})
+        records = manifest["files"]
+        wanted = manifest.get("chapters", {}).get(chapter) if chapter is not None else None
+        if wanted is not None:
+            wanted = set(wanted)
+            records = [record for record in records if record["name"] in wanted]
+            report.chapter = chapter
+        chosen = _to_unpack(records, folder, report)
+        _check_space(folder, sum(record["bytes"] for record in chosen), path.name)
+        for record in chosen:
+            _extract(archive, record, folder, path.name)
+            report.unpacked.append(record["name"])
     if records and not report.unpacked and not report.present:
         modules = sorted({m for ms in report.stale.values() for m in ms})
         which = f"artifacts that chapter {chapter} uses" if wanted is not None else "artifacts"
         raise PackMismatchError(
-            f"{path.name} was built from other code (version {manifest.get('version')}): every one of its "
+            f"{path.name} was built from other code (version {manifest['version']}): every one of its "
             f"{len(records)} {which} ran library modules whose source differs from the installed "
             f"hoi_tutorial {_version()} ({', '.join(modules[:8])}{' ...' if len(modules) > 8 else ''}). "
             "Install the release the pack was built from, or set PRETRAINED = False to build everything")
