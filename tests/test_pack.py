@@ -192,16 +192,31 @@ def test_a_pack_of_an_earlier_format_is_refused_even_where_its_digests_match(tmp
 
 
 def test_use_pretrained_reads_the_chapter_parameter(tmp_path, monkeypatch):
+    import pooch
+
+    def no_network(*args, **kwargs):
+        raise AssertionError("nothing is downloaded unless asked, and then only against a known SHA-256")
+
+    monkeypatch.setattr(pooch, "retrieve", no_network)
     assert pack.use_pretrained(False, "toy", 0) is None
     assert pack.use_pretrained("", "toy", 0) is None
     with pytest.raises(TypeError, match="PRETRAINED: expected False, True, or a pack's path or URL"):
         pack.use_pretrained(3, "toy", 0)
+    # True: the installed release's pack, only with its SHA-256 from the package's registry
+    name = pack.pack_name("toy", 2)
+    monkeypatch.setattr(pack, "RELEASED_PACKS", {})
+    with pytest.raises(pack.PackMismatchError, match=f"lists no SHA-256 for a released pack {name}.*'#sha256=<hex>'"):
+        pack.use_pretrained(True, "toy", 2)
     seen = {}
-    monkeypatch.setattr(pack, "unpack", lambda source, **kw: seen.setdefault("source", source))
+    monkeypatch.setattr(pack, "unpack", lambda source, **kw: seen.update(source=source, **kw))
+    monkeypatch.setitem(pack.RELEASED_PACKS, name, "AB" * 32)
     pack.use_pretrained(True, "toy", 2)
     from hoi_tutorial import __version__
 
     assert seen["source"].endswith(f"/v{__version__}/hoi_tutorial-{__version__}-toy-seed2.zip")
+    assert seen["sha256"] == "ab" * 32
+    with pytest.raises(pack.PackMismatchError, match="is not the SHA-256 that hoi_tutorial .* lists"):
+        pack.use_pretrained(True, "toy", 2, sha256="cd" * 32)
     assert pack.pack_name("small", 1, "9.9") == "hoi_tutorial-9.9-small-seed1.zip"
 
 
@@ -211,6 +226,7 @@ def test_a_url_is_fetched_with_pooch_and_a_failed_download_says_what_to_do(tmp_p
     _, data, other = toy_library
     _book_run(tmp_path / "run", monkeypatch, data, other)
     pack.make_pack(tmp_path / "p.zip", tmp_path / "run", scale="toy", seed=0)
+    digest = pack._sha256_file(tmp_path / "p.zip")
     asked = {}
 
     def retrieve(url, known_hash, path, progressbar):
@@ -218,16 +234,23 @@ def test_a_url_is_fetched_with_pooch_and_a_failed_download_says_what_to_do(tmp_p
         return str(tmp_path / "p.zip")
 
     monkeypatch.setattr(pooch, "retrieve", retrieve)
-    report = pack.unpack("https://example.org/p.zip", tmp_path / "reader", sha256="ab" * 32, verbose=False)
-    assert asked == {"url": "https://example.org/p.zip", "known_hash": "sha256:" + "ab" * 32}
+    report = pack.unpack("https://example.org/p.zip", tmp_path / "reader", sha256=digest.upper(), verbose=False)
+    assert asked == {"url": "https://example.org/p.zip", "known_hash": "sha256:" + digest}
     assert len(report.unpacked) == 2
+    # the hash may ride on the URL, as pip's do, so that PRETRAINED alone carries it (the fragment is not sent)
+    pack.unpack(f"https://example.org/p.zip#sha256={digest}", tmp_path / "reader", verbose=False)
+    assert asked == {"url": "https://example.org/p.zip", "known_hash": "sha256:" + digest}
+    with pytest.raises(pack.PackMismatchError, match="expected one SHA-256"):
+        pack.unpack(f"https://example.org/p.zip#sha256={digest}", tmp_path / "reader", sha256="0" * 64)
+    with pytest.raises(ValueError, match="expected a SHA-256 of 64 hexadecimal digits"):
+        pack.unpack("https://example.org/p.zip", tmp_path / "reader", sha256="not-a-hash")
 
     def offline(*args, **kwargs):
         raise ConnectionError("no network")
 
     monkeypatch.setattr(pooch, "retrieve", offline)
     with pytest.raises(FileNotFoundError, match="could not download .*ConnectionError.*PRETRAINED"):
-        pack.unpack("https://example.org/p.zip", tmp_path / "reader2")
+        pack.unpack("https://example.org/p.zip", tmp_path / "reader2", sha256=digest)
 
 
 def test_make_pack_script_packs_a_filled_cache_with_its_manifest_beside_it(tmp_path, monkeypatch, toy_library,

@@ -1,13 +1,16 @@
 """Pretrained packs as untrusted input: a manifest checked against its schema, sizes checked before anything is
-inflated."""
+inflated, and a download checked against a SHA-256 that does not come from the pack (served here from loopback)."""
 from __future__ import annotations
 
 import collections
 import copy
+import functools
+import http.server
 import importlib
 import io
 import json
 import shutil
+import threading
 import warnings
 import zipfile
 
@@ -209,3 +212,89 @@ def test_a_member_that_yields_more_than_declared_is_cut_off_and_deleted(tmp_path
                                                      "bytes its manifest declares"):
         pack.unpack(path, tmp_path / "reader", verbose=False)
     assert not [p for p in (tmp_path / "reader").iterdir() if "toy_zeros" in p.name]
+
+
+# ----------------------------------------------------------------------------------------------
+# downloads, from a server on loopback
+
+
+@pytest.fixture
+def server(tmp_path, monkeypatch):
+    """An HTTP server on 127.0.0.1 serving the folder ``www``: ``(that folder, its base URL, the paths asked)``."""
+    for name in ("http_proxy", "https_proxy", "all_proxy"):  # loopback only, never through a proxy
+        monkeypatch.delenv(name, raising=False)
+        monkeypatch.delenv(name.upper(), raising=False)
+    root, asked = tmp_path / "www", []
+    root.mkdir()
+
+    class Handler(http.server.SimpleHTTPRequestHandler):
+        def do_GET(self):
+            asked.append(self.path)
+            super().do_GET()
+
+        def log_message(self, *args):
+            pass
+
+    httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), functools.partial(Handler, directory=str(root)))
+    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
+    thread.start()
+    yield root, f"http://127.0.0.1:{httpd.server_address[1]}", asked
+    httpd.shutdown()
+    httpd.server_close()
+    thread.join()
+
+
+def test_a_url_is_downloaded_against_the_given_sha256_and_unpacked(tmp_path, packed, server):
+    path, manifest = packed
+    root, base, asked = server
+    shutil.copy(path, root / "p.zip")
+    digest = pack._sha256_file(path)
+    report = pack.use_pretrained(f"{base}/p.zip", "toy", 0, sha256=digest)
+    assert sorted(report.unpacked) == sorted(record["name"] for record in manifest["files"])
+    assert asked == ["/p.zip"]
+    # the hash on the URL (PRETRAINED alone) serves as well; the copy downloaded before is checked, not fetched
+    again = pack.use_pretrained(f"{base}/p.zip#sha256={digest}", "toy", 0)
+    assert len(again.present) == 2 and asked == ["/p.zip"]
+
+
+def test_a_url_without_a_sha256_is_refused_before_anything_is_downloaded(tmp_path, packed, server):
+    path, _ = packed
+    root, base, asked = server
+    shutil.copy(path, root / "p.zip")
+    with pytest.raises(pack.PackMismatchError, match=r"p.zip: a pack is downloaded only against its SHA-256, and none "
+                                                     r"was given\. End the URL with '#sha256=<hex>'"):
+        pack.use_pretrained(f"{base}/p.zip", "toy", 0)
+    assert asked == [] and not (tmp_path / "reader" / "packs").exists()
+
+
+def test_a_download_whose_sha256_differs_is_refused_and_deleted(tmp_path, packed, server):
+    path, _ = packed
+    root, base, asked = server
+    blob = bytearray(path.read_bytes())
+    blob[len(blob) // 2] ^= 1  # one byte of an artifact
+    (root / "changed.zip").write_bytes(bytes(blob))
+    with pytest.raises(pack.PackMismatchError, match=r"changed.zip: refused: the download's SHA-256 is not the "
+                                                     r"expected [0-9a-f]{64}, and the download was deleted"):
+        pack.use_pretrained(f"{base}/changed.zip", "toy", 0, sha256=pack._sha256_file(path))
+    assert asked == ["/changed.zip"]
+    assert not list((tmp_path / "reader" / "packs").iterdir())  # neither the download nor a partial file
+    assert not list((tmp_path / "reader").glob("*.pt"))
+
+
+def test_the_release_pack_is_checked_against_the_registry(tmp_path, packed, server, monkeypatch):
+    path, _ = packed
+    root, base, asked = server
+    name = pack.pack_name("toy", 0)
+    shutil.copy(path, root / name)
+    monkeypatch.setattr(pack, "release_pack_url", lambda scale, seed, version=None: f"{base}/{name}")
+    monkeypatch.setattr(pack, "RELEASED_PACKS", {})
+    with pytest.raises(pack.PackMismatchError, match=f"PRETRAINED = True: .* lists no SHA-256 for a released pack "
+                                                     f"{name} .*local path.*'#sha256=<hex>'"):
+        pack.use_pretrained(True, "toy", 0)
+    assert asked == []
+    monkeypatch.setitem(pack.RELEASED_PACKS, name, "0" * 64)  # a registry entry the served file does not match
+    with pytest.raises(pack.PackMismatchError, match="the download's SHA-256 is not the expected 0000"):
+        pack.use_pretrained(True, "toy", 0)
+    monkeypatch.setitem(pack.RELEASED_PACKS, name, pack._sha256_file(path))
+    report = pack.use_pretrained(True, "toy", 0, chapter="01_toy_world")
+    assert len(report.unpacked) == 2 and asked == [f"/{name}", f"/{name}"]

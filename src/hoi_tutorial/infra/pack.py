@@ -8,8 +8,12 @@ modules it ran with the SHA-256 of their source (what :func:`~hoi_tutorial.infra
 and blank lines aside (``cache.module_digests``), so a pack never stands in for code it was not built from: a pack
 built before a library edit is refused for what the edit touches, and refused as a whole when that is everything.
 
-A pack is untrusted input until checked:
+A pack is untrusted input until checked, and its manifest does not vouch for itself:
 
+- a download is checked against a SHA-256 that does not come from the pack: the caller's (``sha256=``, or a URL
+  ending ``#sha256=<hex>``) or, for the installed release's own pack, :data:`RELEASED_PACKS`, the hashes the
+  package ships (like pooch's ``known_hash``); a URL without one is refused before anything is downloaded, and a
+  download whose hash differs is deleted. A local path needs no hash: the reader chose the file;
 - the manifest (at most 16 MB) is checked against its schema (:func:`_validate_manifest`) and the zip against the
   manifest: exactly its files, each of its declared size, in all below a cap and within the cache folder's free
   space, before anything is decompressed; while extracting, a member that yields more bytes than declared (a zip
@@ -20,7 +24,8 @@ A pack is untrusted input until checked:
 Typical use (a chapter's ``PRETRAINED`` parameter does this in its third cell)::
 
     from hoi_tutorial.infra import use_pretrained
-    use_pretrained("hoi_tutorial-0.1.0-toy-seed0.zip", scale="toy", seed=0)   # a path, a URL, or True
+    use_pretrained("hoi_tutorial-0.1.0-toy-seed0.zip", scale="toy", seed=0)   # a path, True, or a URL with its hash
+    use_pretrained("https://example.org/hoi_tutorial-0.1.0-toy-seed0.zip#sha256=<hex>", scale="toy", seed=0)
 
 Nothing is downloaded unless asked: ``PRETRAINED = False`` (the default, and CI's) builds everything.
 """
@@ -36,6 +41,7 @@ import pathlib
 import re
 import shutil
 import tempfile
+import urllib.parse
 import zipfile
 import zlib
 from typing import Optional, Union
@@ -49,8 +55,8 @@ from .code_closure import module_file
 from .presets import check_scale
 from .seeding import check_seed
 
-__all__ = ["PACK_FORMAT", "PackMismatchError", "UnpackReport", "pack_name", "release_pack_url", "make_pack",
-           "read_manifest", "unpack", "use_pretrained"]
+__all__ = ["PACK_FORMAT", "RELEASED_PACKS", "PackMismatchError", "UnpackReport", "pack_name", "release_pack_url",
+           "make_pack", "read_manifest", "unpack", "use_pretrained"]
 
 PACK_FORMAT = 2  # 2: the module digests ignore comments, docstrings and blank lines (cache.FORMAT 2)
 MANIFEST = "manifest.json"
@@ -58,6 +64,11 @@ MANIFEST = "manifest.json"
 _ARTIFACT_FILE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,99}-[0-9a-f]{16}\.pt$")
 # Where a release's pack is published (its assets), by version, scale and seed.
 RELEASE_URL = "https://github.com/hoi-tutorial/hoi_tutorial/releases/download/v{version}/{name}"
+# The SHA-256 (hex) of each pack a release published, by file name (pack_name): what ``PRETRAINED = True`` checks a
+# download against, as pooch's ``known_hash`` does. A release adds its packs' hashes (scripts/make_pack.py prints
+# them) before it is tagged: no artifact's code reaches this module, so the edit leaves the packs valid. No release
+# has a pack yet, so ``True`` is refused until one does.
+RELEASED_PACKS: dict = {}
 
 # Limits on what a pack may ask of the reader's machine, checked before anything is decompressed.
 _MANIFEST_MAX_BYTES = 16 << 20  # a record is a name, a size and a digest per module: 16 MB holds thousands
@@ -66,11 +77,12 @@ _SPACE_MARGIN_BYTES, _SPACE_MARGIN_SHARE = 256 << 20, 0.05  # room left free on 
 _SHA256_HEX = re.compile(r"^[0-9a-f]{64}$")
 _MODULE_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*){0,15}$")
 _MEMBER_COMPRESSION = (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED)  # what make_pack writes
+_URL = re.compile(r"^https?://", flags=re.I)
 
 
 class PackMismatchError(ValueError):
     """A pack that cannot serve this installation: another scale or seed, built from other code, or not what it
-    should be (a manifest off its schema, sizes that disagree or do not fit, another SHA-256)."""
+    should be (another SHA-256, a manifest off its schema, sizes that disagree or do not fit)."""
 
 
 def _version() -> str:
@@ -436,26 +448,66 @@ class UnpackReport:
         return line
 
 
-def _fetch(source: str, sha256: Optional[str]) -> pathlib.Path:
-    """A local path to the pack ``source`` (a path, or an http(s) URL downloaded once with pooch)."""
-    if re.match(r"^https?://", source):
-        import pooch  # only for a download
+def _normal_sha256(sha256, what: str) -> Optional[str]:
+    """``sha256`` (64 hex digits, or pooch's ``"sha256:<hex>"``) in lowercase; ``None`` for none given."""
+    if sha256 is None or sha256 == "":
+        return None
+    text = sha256.strip().lower() if isinstance(sha256, str) else ""
+    text = text[len("sha256:"):] if text.startswith("sha256:") else text
+    if not _SHA256_HEX.match(text):
+        raise ValueError(f"{what}: expected a SHA-256 of 64 hexadecimal digits, got {_shown(sha256)}")
+    return text
 
-        known = f"sha256:{sha256}" if sha256 else None
-        try:
-            return pathlib.Path(pooch.retrieve(source, known_hash=known, path=cache_dir() / "packs",
-                                               progressbar=True))
-        except ValueError:  # pooch's hash mismatch
-            raise
-        except Exception as exc:  # no network, no such release asset (HTTP 404), ...
-            raise FileNotFoundError(f"pack: could not download {source} ({type(exc).__name__}: {exc}); set "
-                                    "PRETRAINED to a pack's path or another URL, or to False to build everything"
-                                    ) from exc
+
+def _split_url_hash(source: str) -> tuple:
+    """``(URL, SHA-256 or None)`` of a URL that may end ``#sha256=<hex>``, as pip's do: how ``PRETRAINED``, one
+    string in a chapter's parameters, carries the hash its download is checked against (a fragment is never sent
+    to the server)."""
+    url, fragment = urllib.parse.urldefrag(source)
+    if fragment.lower().startswith("sha256="):
+        return url, _normal_sha256(fragment[len("sha256="):], f"{url}#sha256=")
+    return source, None
+
+
+def _download(url: str, sha256: str) -> pathlib.Path:
+    """``url`` downloaded once with pooch into the cache folder's ``packs/``, only as the file whose SHA-256 is
+    ``sha256``: pooch checks a download before moving it into place (and deletes it where it differs) and a copy
+    downloaded earlier before returning it (and downloads again where that differs), one pass over the bytes."""
+    import pooch  # only for a download
+
+    try:
+        return pathlib.Path(pooch.retrieve(url, known_hash=f"sha256:{sha256}", path=cache_dir() / "packs",
+                                           progressbar=True))
+    except ValueError as exc:  # pooch's hash mismatch (tqdm, its only other one, is a dependency)
+        raise PackMismatchError(f"{url}: refused: the download's SHA-256 is not the expected {sha256}, and the "
+                                f"download was deleted ({_shown(str(exc), 200)})") from None
+    except Exception as exc:  # no network, no such release asset (HTTP 404), ...
+        raise FileNotFoundError(f"pack: could not download {url} ({type(exc).__name__}: {exc}); set PRETRAINED to "
+                                "a pack's path or another URL, or to False to build everything") from exc
+
+
+def _fetch(source: str, sha256: Optional[str]) -> pathlib.Path:
+    """A local path to the pack ``source``: a path as it is (checked against ``sha256`` where given), or an http(s)
+    URL downloaded against ``sha256`` or the URL's ``#sha256=<hex>``; a URL with neither is refused before
+    anything is downloaded, since a pack's manifest cannot vouch for the pack."""
+    expected = _normal_sha256(sha256, "sha256")
+    if _URL.match(source):
+        url, in_url = _split_url_hash(source)
+        if expected and in_url and expected != in_url:
+            raise PackMismatchError(f"{url}: expected one SHA-256, got sha256={expected} and the URL's "
+                                    f"#sha256={in_url}")
+        expected = expected or in_url
+        if expected is None:
+            raise PackMismatchError(
+                f"{url}: a pack is downloaded only against its SHA-256, and none was given. End the URL with "
+                "'#sha256=<hex>' or pass sha256='<hex>' (scripts/make_pack.py prints a pack's hash), or download "
+                "the pack yourself and give its path, or set PRETRAINED = False to build everything")
+        return _download(url, expected)
     path = pathlib.Path(source).expanduser()
     if not path.is_file():
         raise FileNotFoundError(f"pack: expected a pack file or an http(s) URL, {source!r} is neither")
-    if sha256 and _sha256_file(path) != sha256.lower():
-        raise PackMismatchError(f"{path}: its SHA-256 is not the expected {sha256}")
+    if expected and _sha256_file(path) != expected:
+        raise PackMismatchError(f"{path}: its SHA-256 is not the expected {expected}")
     return path
 
 
@@ -538,7 +590,8 @@ def _extract(archive: zipfile.ZipFile, record: dict, folder: pathlib.Path, where
 def unpack(source: Union[str, os.PathLike], cache: Union[str, os.PathLike, None] = None, *,
            scale: Optional[str] = None, seed: Optional[int] = None, sha256: Optional[str] = None,
            chapter: Optional[str] = None, verbose: bool = True) -> UnpackReport:
-    """Unpack the pack ``source`` (a path or URL) into the cache folder ``cache`` (default: the cache).
+    """Unpack the pack ``source`` (a path, or a URL with its SHA-256) into the cache folder ``cache`` (default: the
+    cache).
 
     Only artifacts whose recorded modules all have, installed, the same source (SHA-256) are copied; an identical
     file already there is left alone. Before anything is decompressed the manifest is checked against its schema
@@ -548,15 +601,16 @@ def unpack(source: Union[str, os.PathLike], cache: Union[str, os.PathLike, None]
 
     Args:
         scale, seed: the reader's; a pack built for others is refused (its artifacts would never be loaded).
-        sha256: the pack file's expected SHA-256 (checked by pooch for a URL, here for a path).
+        sha256: the pack file's expected SHA-256 (64 hex digits): needed for an http(s) URL, unless the URL ends
+            ``#sha256=<hex>``; checked, where given, for a path.
         chapter: a chapter's notebook name (``"12_samp_motionnet"``): only the artifacts that chapter loaded or
             built when the pack was made (the manifest's ``chapters``); every artifact when the manifest does not
             list the chapter.
 
     Raises:
-        PackMismatchError: a file with another SHA-256, a manifest or zip that departs from the schema, another
-            scale or seed, too little free space, a file that inflates past its size or fails its hash, or no
-            artifact that matches the installed code (a pack built from other code), with what differs.
+        PackMismatchError: a URL without a SHA-256 or a file with another, a manifest or zip that departs from the
+            schema, another scale or seed, too little free space, a file that inflates past its size or fails its
+            hash, or no artifact that matches the installed code (a pack built from other code), with what differs.
         FileNotFoundError: no such file, or a download that failed.
     """
     path = _fetch(str(source), sha256)
@@ -590,14 +644,35 @@ def unpack(source: Union[str, os.PathLike], cache: Union[str, os.PathLike, None]
     return report
 
 
+def _release_sha256(scale: str, seed: int, sha256: Optional[str]) -> str:
+    """The SHA-256 that the installed release's pack for ``scale`` and ``seed`` must have: :data:`RELEASED_PACKS`'
+    entry, or the caller's ``sha256`` (which must agree with it where there is one)."""
+    name = pack_name(scale, seed)
+    known = _normal_sha256(RELEASED_PACKS.get(name), f"RELEASED_PACKS[{name!r}]")
+    given = _normal_sha256(sha256, "sha256")
+    if known and given and known != given:
+        raise PackMismatchError(f"PRETRAINED = True: sha256={given} is not the SHA-256 that hoi_tutorial "
+                                f"{_version()} lists for {name} ({known}); expected that one, or none")
+    if not (known or given):
+        raise PackMismatchError(
+            f"PRETRAINED = True: hoi_tutorial {_version()} lists no SHA-256 for a released pack {name} "
+            "(infra.pack.RELEASED_PACKS), so a download of it could not be checked: this version published none. "
+            "Set PRETRAINED to a pack's local path, or to its URL ending '#sha256=<hex>', or to False to build "
+            "everything")
+    return known or given
+
+
 def use_pretrained(pretrained, scale: str, seed: int, sha256: Optional[str] = None,
                    chapter: Optional[str] = None) -> Optional[UnpackReport]:
-    """What a chapter's ``PRETRAINED`` parameter asks for: ``False`` / ``None`` / ``""`` nothing, ``True`` the
-    installed release's pack for ``scale`` and ``seed`` (:func:`release_pack_url`), a string a pack's path or URL;
+    """What a chapter's ``PRETRAINED`` parameter asks for: ``False`` / ``None`` / ``""`` nothing (no network);
+    ``True`` the installed release's pack for ``scale`` and ``seed`` (:func:`release_pack_url`), checked against
+    its SHA-256 in :data:`RELEASED_PACKS` (refused where there is none, unless ``sha256`` is given); a string a
+    pack's local path, or an http(s) URL with its SHA-256 (``sha256``, or the URL ending ``#sha256=<hex>``).
     ``chapter`` (the chapter's notebook name) unpacks only what that chapter uses (:func:`unpack`)."""
     if pretrained is None or pretrained is False or pretrained == "":
         return None
     if pretrained is True:
+        sha256 = _release_sha256(scale, seed, sha256)
         pretrained = release_pack_url(scale, seed)
     if not isinstance(pretrained, (str, os.PathLike)):
         raise TypeError(f"PRETRAINED: expected False, True, or a pack's path or URL, got {pretrained!r}")
