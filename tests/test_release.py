@@ -72,3 +72,9 @@ def test_the_lock_pins_every_requirement_within_its_bounds():
         assert name in pins, f"requirements.lock: {requirement.name} is not pinned; run `make lock`"
         version = next(iter(pins[name].specifier)).version
         assert requirement.specifier.contains(version, prereleases=True), (requirement, version)
+
+
+def test_the_books_footer_names_the_licences_year():
+    # Jupyter Book prints "© Copyright <copyright>" in every page's footer; without the key it prints its own default.
+    year = re.search(r"Copyright \(c\) (\d{4})", (ROOT / "LICENSE").read_text()).group(1)
+    assert str(yaml.safe_load((ROOT / "_config.yml").read_text())["copyright"]) == year
