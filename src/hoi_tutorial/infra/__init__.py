@@ -1,6 +1,7 @@
 """Infrastructure every chapter shares: scale presets, seeding, device choice, the artifact
 cache, a model-agnostic training loop, progress bars (also from worker processes) and paper-vs-ours tables."""
 from .cache import (
+    CacheStoreWarning,
     CorruptArtifactWarning,
     NotCachedError,
     artifact_key,
@@ -26,8 +27,8 @@ __all__ = [
     "SCALES", "by_scale", "check_scale", "scaled_config",
     "check_seed", "rng", "seed_everything",
     "choose_device", "one_thread", "single_threaded", "threads_allowed", "available_cores", "warm_cache",
-    "CorruptArtifactWarning", "NotCachedError", "cache_only", "artifact_key", "artifact_path", "cache_dir", "clear_cache",
-    "load_or_build", "state_dict_to_cpu", "source_digest",
+    "CacheStoreWarning", "CorruptArtifactWarning", "NotCachedError", "cache_only", "artifact_key", "artifact_path",
+    "cache_dir", "clear_cache", "load_or_build", "state_dict_to_cpu", "source_digest",
     "TrainerConfig", "TrainResult", "TrainedModel", "trainer_config", "learning_rate_factor", "move_to_device", "train",
     "format_seconds", "side_by_side", "show_progress", "progress_enabled",
     "PackMismatchError", "make_pack", "read_manifest", "release_pack_url", "unpack", "use_pretrained",

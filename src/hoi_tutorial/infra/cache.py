@@ -8,6 +8,12 @@ file in the same folder, then ``os.replace``), loaded with ``torch.load(..., wei
 (no arbitrary pickle is ever executed), and verified (key and checksum); a file that fails any
 check is reported and rebuilt.
 
+Storing never costs a build: when the file cannot be written (a full disk, a read-only folder), the artifact is
+returned all the same and kept in memory until the process ends, with one :class:`CacheStoreWarning` per process.
+A build holds a lock beside its file (``<name>-<key16>.lock``, by ``fcntl.flock``; none where that is missing),
+so a second process that needs the same artifact waits and loads what the first stored, and what a killed build
+left (``.<name>-<key16>.*.tmp``) is removed then (``infra.cache_store`` writes and locks the files).
+
 The folder is ``$HOI_CACHE`` when that is set, else ``$XDG_CACHE_HOME/hoi_tutorial``, else
 ``~/.cache/hoi_tutorial``.
 
@@ -30,8 +36,8 @@ it. ``build`` is always part of ``code``, and every library module that an item 
 defined in, or imports, transitively, counts as well (``code_closure``): an edit to a function a
 builder reaches only through another module rebuilds the artifact. ``code`` then lists only what
 imports cannot show. The cache's own modules (``STORAGE_MODULES``) are left out: they decide how
-an artifact is stored, not what it holds, and a change to that bumps ``FORMAT``. Artifacts are nested dicts, lists and tuples of
-torch tensors, numpy arrays and python scalars / strings / ``None``; what comes back is
+an artifact is stored, not what it holds, and a change to that bumps ``FORMAT``. Artifacts are nested dicts, lists
+and tuples of torch tensors, numpy arrays and python scalars / strings / ``None``; what comes back is
 always on the CPU and identical whether it was just built or loaded.
 """
 from __future__ import annotations
@@ -46,7 +52,6 @@ import json
 import os
 import pathlib
 import re
-import tempfile
 import threading
 import tokenize
 import time
@@ -58,10 +63,13 @@ from typing import Any, Callable, Iterable
 import numpy as np
 import torch
 
+from .cache_store import (STORE_FAILURES, CacheStoreWarning, artifact_lock, cache_files, describe_failure,
+                          remove_files, remove_stale_temporaries, save_atomic, warn_store_failed)
 from .code_closure import code_closure, module_file
 from .cleaned_source import source_digest
 
 __all__ = [
+    "CacheStoreWarning",
     "CorruptArtifactWarning",
     "NotCachedError",
     "cache_only",
@@ -247,7 +255,8 @@ DERIVED_PACKAGES = {__name__.split(".")[0]}
 # The cache's own machinery: every builder imports it, yet it decides how an artifact is stored and keyed, not what
 # the artifact holds. Left out of every key, so that mending it (a full disk, a lock) rebuilds nothing; a change to
 # how artifacts are stored or keyed bumps FORMAT instead, which moves every key at once.
-STORAGE_MODULES = frozenset({__name__, f"{__package__}.code_closure", f"{__package__}.cleaned_source"})
+STORAGE_MODULES = frozenset({__name__, f"{__package__}.cache_store", f"{__package__}.code_closure",
+                             f"{__package__}.cleaned_source"})
 
 
 def _module_name_of(item) -> str | None:
@@ -447,13 +456,17 @@ def _load_verified(path: pathlib.Path, key: str):
 _LOADED: "OrderedDict[tuple, tuple[int, Any]]" = OrderedDict()
 _LOADED_LIMIT = 512 * 2**20
 _LOADED_LOCK = threading.Lock()
+# Artifacts built in this process that could not be stored (a full disk, a read-only folder), by (file, key): kept,
+# whatever their size, until the process ends, since the next call for one would otherwise build it again.
+_UNSTORED: dict = {}
+_MISSING = object()  # "not found" (an artifact may itself be None)
 
 
 def _loaded_before(identity: tuple):
     with _LOADED_LOCK:
         found = _LOADED.get(identity)
         if found is None:
-            return None
+            return _MISSING
         _LOADED.move_to_end(identity)
     return copy.deepcopy(found[1])
 
@@ -468,23 +481,78 @@ def _remember_loaded(identity: tuple, size: int, artifact) -> None:
             _LOADED.popitem(last=False)
 
 
-def _save_atomic(blob, path: pathlib.Path) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
+def _kept_unstored(path: pathlib.Path, key: str):
+    """A copy of the artifact this process built for ``path`` and ``key`` and could not store, else ``_MISSING``."""
+    with _LOADED_LOCK:
+        found = _UNSTORED.get((str(path), key), _MISSING)
+    return found if found is _MISSING else copy.deepcopy(found)
+
+
+def _keep_unstored(path: pathlib.Path, key: str, artifact) -> None:
+    with _LOADED_LOCK:
+        _UNSTORED[(str(path), key)] = artifact
+
+
+def _read_stored(name: str, path: pathlib.Path, key: str, verbose: bool):
+    """``(artifact, None)`` from the stored file; ``(_MISSING, None)`` when there is none, ``(_MISSING, reason)``
+    when it fails a check."""
     try:
-        with os.fdopen(fd, "wb") as handle:
-            torch.save(blob, handle)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+        stat = path.stat()
+    except FileNotFoundError:
+        return _MISSING, None
+    identity = (str(path), key, stat.st_ino, stat.st_size, stat.st_mtime_ns)
+    artifact = _loaded_before(identity)
+    if artifact is _MISSING:
+        artifact, reason = _load_verified(path, key)
+        if reason is not None:
+            return _MISSING, reason
+        _remember_loaded(identity, stat.st_size, artifact)
+    if verbose:
+        print(f"[cache] loaded {name} ({_format_bytes(stat.st_size)})")
+    return artifact, None
+
+
+def _find(name: str, path: pathlib.Path, key: str, verbose: bool):
+    """What :func:`_read_stored` gives, from the copy kept in memory first (a build this process could not store)."""
+    artifact = _kept_unstored(path, key)
+    if artifact is _MISSING:
+        return _read_stored(name, path, key, verbose)
+    if verbose:
+        print(f"[cache] kept {name} (in memory: the cache could not store it)")
+    return artifact, None
+
+
+def _build_and_store(name: str, path: pathlib.Path, key: str, build: Callable[[], Any], code: tuple,
+                     verbose: bool):
+    """``build()``, stored under ``path``; kept in memory instead when it cannot be stored (warned once)."""
+    if verbose:
+        print(f"[cache] building {name} ...")
+    start = time.perf_counter()
+    payload = _encode(build(), "artifact")
+    # "modules": the library code it ran, for a pretrained pack (infra.pack) to check against the installed code
+    blob = {"format": FORMAT, "key": key, "payload": payload, "checksum": _checksum(payload),
+            "modules": module_digests(derived_code(code))}
+    try:
+        size = save_atomic(blob, path)
+    except STORE_FAILURES as exc:  # the build is done: losing it to a full disk would waste it, so keep it
+        _keep_unstored(path, key, _decode(payload))
+        warn_store_failed(path.parent, f"store {path.name}", exc, stacklevel=3)
+        if verbose:
+            print(f"[cache] built {name} in {time.perf_counter() - start:.1f} s, kept in memory: not stored "
+                  f"({describe_failure(exc)})")
+    else:
+        if verbose:
+            print(f"[cache] built {name} in {time.perf_counter() - start:.1f} s ({_format_bytes(size)})")
+    return _decode(payload)
 
 
 def load_or_build(name: str, config, build: Callable[[], Any], code: Iterable = (), *,
                   verbose: bool = True):
     """Load the artifact ``name`` for ``config`` from the cache, or ``build()`` and store it.
+
+    A build runs holding the artifact's lock (``<name>-<key[:16]>.lock``), so that a second process asking for it
+    meanwhile waits and then loads what the first stored. An artifact that cannot be stored is returned all the
+    same, and kept in memory for the rest of the process (:class:`CacheStoreWarning`, once per process).
 
     Args:
         name: identifier-like artifact name; the file is ``<cache_dir>/<name>-<key[:16]>.pt``.
@@ -501,55 +569,38 @@ def load_or_build(name: str, config, build: Callable[[], Any], code: Iterable = 
     code = (*tuple(code), build)
     key = artifact_key(name, config, code)
     path = artifact_path(name, key)
-    if path.exists():
-        stat = path.stat()
-        identity = (str(path), key, stat.st_ino, stat.st_size, stat.st_mtime_ns)
-        artifact, reason = _loaded_before(identity), None
-        if artifact is None:
-            artifact, reason = _load_verified(path, key)
-            if reason is None:
-                _remember_loaded(identity, stat.st_size, artifact)
-        if reason is None:
-            if verbose:
-                print(f"[cache] loaded {name} ({_format_bytes(stat.st_size)})")
-            return artifact
-        warnings.warn(f"rebuilding corrupt artifact {path} ({reason})", CorruptArtifactWarning,
-                      stacklevel=2)
+    artifact, reason = _find(name, path, key, verbose)
+    if artifact is not _MISSING:
+        return artifact
+    if reason is not None:
+        warnings.warn(f"rebuilding corrupt artifact {path} ({reason})", CorruptArtifactWarning, stacklevel=2)
     if getattr(_CACHE_ONLY, "active", False):
         raise NotCachedError(f"artifact {name!r} is not cached (key {key[:16]})")
-    if verbose:
-        print(f"[cache] building {name} ...")
-    start = time.perf_counter()
-    payload = _encode(build(), "artifact")
-    # "modules": the library code it ran, for a pretrained pack (infra.pack) to check against the installed code
-    blob = {"format": FORMAT, "key": key, "payload": payload, "checksum": _checksum(payload),
-            "modules": module_digests(derived_code(code))}
-    try:
-        _save_atomic(blob, path)
-    except OSError as exc:
-        warnings.warn(f"could not save artifact {path}: {exc}", RuntimeWarning, stacklevel=2)
-    else:
-        if verbose:
-            print(f"[cache] built {name} in {time.perf_counter() - start:.1f} s "
-                  f"({_format_bytes(path.stat().st_size)})")
-    return _decode(payload)
+    waiting = (lambda: print(f"[cache] waiting for another process building {name} ...")) if verbose else None
+    with artifact_lock(path, on_wait=waiting) as lock:
+        if lock.failure is not None:  # a read-only folder, a full disk: build without the lock
+            warn_store_failed(path.parent, f"create the lock file of {path.name}", lock.failure, stacklevel=2)
+        if lock.held:
+            remove_stale_temporaries(path)  # a killed build's: no other build of it can be writing one now
+            # Another process (or thread) may have built it while this one waited for the lock.
+            artifact, again = _find(name, path, key, verbose)
+            if artifact is not _MISSING:
+                return artifact
+            if again is not None and reason is None:
+                warnings.warn(f"rebuilding corrupt artifact {path} ({again})", CorruptArtifactWarning, stacklevel=2)
+        return _build_and_store(name, path, key, build, code, verbose)
 
 
 def clear_cache(name: str | None = None) -> int:
-    """Delete the cached artifacts called ``name`` (all artifacts when ``None``).
+    """Delete the cached artifacts called ``name`` (all artifacts when ``None``), their temporaries and their lock
+    files (but a lock a build holds now).
 
-    Only this cache's own files are touched. Returns the number of files removed.
+    Only this cache's own files are touched. Returns the number of artifact and temporary files removed.
     """
-    pattern = re.compile(
-        rf"^\.?{re.escape(_check_name(name)) if name is not None else '[A-Za-z_][A-Za-z0-9_]*'}"
-        r"(-[0-9a-f]{16}\.pt|-[0-9a-f]{16}\..*\.tmp)$"
-    )
-    removed = 0
-    for file in cache_dir().iterdir():
-        if file.is_file() and pattern.match(file.name):
-            file.unlink()
-            removed += 1
-    return removed
+    stem = re.compile(rf"^{re.escape(_check_name(name))}-[0-9a-f]{{16}}$") if name is not None else None
+    chosen = [file for file, artifact in cache_files(cache_dir()) if stem is None or stem.match(artifact.stem)]
+    return sum(file.suffix != ".lock" for file in remove_files(chosen))
+
 
 
 def state_dict_to_cpu(module: torch.nn.Module) -> "OrderedDict[str, torch.Tensor]":
