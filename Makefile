@@ -18,6 +18,8 @@ BENCH_ARGS ?=
 LOCK ?= requirements.lock
 # Extra flags for scripts/make_pack.py (`make artifacts`), e.g. ARTIFACTS_ARGS="--seed 1".
 ARTIFACTS_ARGS ?=
+# Extra flags for scripts/prune_cache.py (`make prune-cache`), e.g. PRUNE_ARGS=--dry-run.
+PRUNE_ARGS ?=
 # Chapters scripts/colab_check.py executes in a Colab-like runtime (empty: its default, chapters 03, 11 and 15).
 COLAB_CHAPTERS ?=
 # Seconds one cell of a chapter may run in `make book` and `make test`. A chapter's first code cell builds what
@@ -40,7 +42,8 @@ endif
 HYPOTHESIS_PROFILE ?= ci
 export HYPOTHESIS_PROFILE
 
-.PHONY: venv lock test unit-test unit-test-other-kernels test-fresh book bench artifacts colab-check clean strip
+.PHONY: venv lock test unit-test unit-test-other-kernels test-fresh book bench artifacts colab-check clean strip \
+	prune-cache
 
 venv: $(STAMP)
 
@@ -116,6 +119,11 @@ artifacts: venv
 # Select chapters with COLAB_CHAPTERS="notebooks/01_toy_world.ipynb ...".
 colab-check: venv
 	PATH="$(VENV_BIN):$$PATH" $(PY) scripts/colab_check.py $(COLAB_CHAPTERS)
+
+# Removes from the artifact cache what the installed code can no longer use (artifacts and downloaded packs built by
+# other code, leftovers of killed runs) and prints it; PRUNE_ARGS=--dry-run only prints (scripts/prune_cache.py).
+prune-cache: venv
+	$(PY) scripts/prune_cache.py $(PRUNE_ARGS)
 
 clean:
 	rm -rf _build .jupyter_cache jupyter_execute .pytest_cache .hypothesis

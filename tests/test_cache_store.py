@@ -1,20 +1,25 @@
 """The artifact cache never loses work: a failed store keeps the build, one build per artifact across processes, the
-leftovers of killed builds removed."""
+leftovers of killed builds removed, and what the installed code can no longer use pruned."""
 from __future__ import annotations
 
 import errno
+import json
 import multiprocessing
 import os
+import subprocess
+import sys
 import time
 import warnings
+import zipfile
 from pathlib import Path
 
 import pytest
 import torch
 
-from hoi_tutorial.infra import CacheStoreWarning, NotCachedError, cache_only, clear_cache, load_or_build
+from hoi_tutorial.infra import (CacheStoreWarning, NotCachedError, cache_only, clear_cache, load_or_build, make_pack,
+                                prune_cache)
 from hoi_tutorial.infra import cache as cache_module
-from hoi_tutorial.infra import cache_store
+from hoi_tutorial.infra import cache_store, seeding
 from hoi_tutorial.infra.code_closure import code_closure
 
 try:
@@ -22,6 +27,7 @@ try:
 except ImportError:  # Windows: the cache takes no locks
     fcntl = None
 
+REPO_ROOT = Path(__file__).resolve().parents[1]
 needs_locks = pytest.mark.skipif(fcntl is None, reason="the cache locks artifacts with fcntl.flock")
 
 
@@ -237,3 +243,147 @@ def test_clear_cache_removes_leftover_locks_but_not_a_held_one(isolated_cache):
         assert clear_cache() == 0 and _files(isolated_cache) == [held.name]
     finally:
         os.close(fd)
+
+
+# ---------------------------------------------------------------------------------- pruning
+
+
+def _other_code(path: Path) -> None:
+    """Make the artifact file ``path`` look built by other code: every module digest it records changed, its
+    payload and checksum left as they are."""
+    blob = torch.load(path, weights_only=True)
+    assert blob["modules"], "the artifact should record the library modules it ran"
+    blob["modules"] = {module: "0" * 64 for module in blob["modules"]}
+    torch.save(blob, path)
+
+
+def _zeros():
+    return {"v": torch.zeros(2)}
+
+
+def _ones():
+    return {"v": torch.ones(2)}
+
+
+def _two_artifacts(folder: Path) -> tuple[Path, Path]:
+    """Two artifacts that ran library code (their blobs record ``seeding``'s modules); returns their files."""
+    load_or_build("current", {}, _zeros, code=(seeding,), verbose=False)
+    load_or_build("outdated", {}, _ones, code=(seeding,), verbose=False)
+    return next(folder.glob("current-*.pt")), next(folder.glob("outdated-*.pt"))
+
+
+def test_prune_removes_artifacts_of_other_code_and_what_nothing_can_read(isolated_cache):
+    current, outdated = _two_artifacts(isolated_cache)
+    _other_code(outdated)
+    corrupt = isolated_cache / "corrupt-00000000000000aa.pt"
+    corrupt.write_bytes(b"not a zip file")
+    older = isolated_cache / "older-00000000000000bb.pt"
+    torch.save({"format": cache_module.FORMAT - 1, "key": "0" * 64, "payload": 1, "checksum": "", "modules": {}},
+               older)
+    orphan_lock = isolated_cache / "gone-00000000000000cc.lock"
+    orphan_lock.touch()
+    kept_lock = cache_store.lock_path(current)
+    kept_lock.touch()  # a leftover, but its artifact is current: left
+    stale_tmp = isolated_cache / f".{current.stem}.k1ll3d_x.tmp"
+    stale_tmp.write_bytes(b"half")
+    # Not the cache's names, or not its files: never touched.
+    (isolated_cache / "notes.txt").write_text("keep me")
+    (isolated_cache / "model-123.pt").write_bytes(b"someone else's checkpoint")
+    (isolated_cache / "model-0123456789ABCDEF.pt").write_bytes(b"not a key: capitals")
+    (isolated_cache / "tmp8a7sd6f").write_bytes(b"someone else's temporary")
+    ledger = isolated_cache / "ledger"
+    ledger.mkdir()
+    (ledger / "claim.seed0.toy.json").write_text("{}")
+    (ledger / "broken-0000000000000000.pt").write_bytes(b"in a folder: never looked at")
+    before = _files(isolated_cache)
+
+    expected = sorted([outdated, corrupt, older, orphan_lock, stale_tmp])
+    assert prune_cache(dry_run=True) == expected
+    assert _files(isolated_cache) == before  # a dry run removes nothing
+    assert prune_cache() == expected
+    assert _files(isolated_cache) == sorted(set(before) - {p.name for p in expected})
+    assert current.exists() and kept_lock.exists() and (ledger / "claim.seed0.toy.json").exists()
+    assert (ledger / "broken-0000000000000000.pt").exists()
+    assert prune_cache() == []
+    with cache_only():  # what was kept still loads
+        assert torch.equal(load_or_build("current", {}, _zeros, code=(seeding,), verbose=False)["v"], torch.zeros(2))
+
+
+@needs_locks
+def test_prune_leaves_what_a_running_build_holds(isolated_cache):
+    writing = isolated_cache / ".busy-00000000000000dd.0000wrtg.tmp"
+    isolated_cache.mkdir(parents=True, exist_ok=True)
+    writing.write_bytes(b"being written")
+    lock = isolated_cache / "busy-00000000000000dd.lock"
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT)
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    try:
+        assert prune_cache() == [] and writing.exists() and lock.exists()
+    finally:
+        os.close(fd)
+    assert prune_cache() == sorted([writing, lock])
+
+
+def test_prune_follows_an_edit_of_the_library(isolated_cache, derived_package):
+    import importlib
+
+    root = derived_package("prunepkg", {"prunepkg/__init__.py": "",
+                                        "prunepkg/maths.py": "def make():\n    return [1, 2]\n",
+                                        "prunepkg/words.py": "def make():\n    return 'a'\n"})
+    maths, words = importlib.import_module("prunepkg.maths"), importlib.import_module("prunepkg.words")
+    load_or_build("numbers", {}, maths.make, verbose=False)
+    load_or_build("letters", {}, words.make, verbose=False)
+    assert prune_cache(dry_run=True) == []
+    (root / "prunepkg/maths.py").write_text("def make():\n    return [1, 2, 3]\n")
+    assert [p.name.split("-")[0] for p in prune_cache()] == ["numbers"]
+    (root / "prunepkg/words.py").unlink()  # a module that is gone counts as changed
+    assert [p.name.split("-")[0] for p in prune_cache()] == ["letters"]
+
+
+def _pack_at(folder: Path, name: str, edit=None) -> Path:
+    """A pack of the cache's artifacts, as pooch stores a download (``<md5>-<file name>``), its manifest edited."""
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{'ab' * 16}-{name}"
+    manifest = make_pack(path, scale="toy", seed=0)
+    if edit is not None:
+        edit(manifest)
+        with zipfile.ZipFile(path) as archive:
+            members = {n: archive.read(n) for n in archive.namelist() if n != "manifest.json"}
+        with zipfile.ZipFile(path, "w") as archive:
+            archive.writestr("manifest.json", json.dumps(manifest))
+            for member, data in members.items():
+                archive.writestr(member, data)
+    return path
+
+
+def _refuse_every_artifact(manifest):
+    for record in manifest["files"]:
+        record["modules"] = {module: "0" * 64 for module in record["modules"]}
+
+
+def test_prune_removes_downloaded_packs_the_installed_code_cannot_use(isolated_cache):
+    current, outdated = _two_artifacts(isolated_cache)
+    packs = isolated_cache / "packs"
+    usable = _pack_at(packs, "usable.zip")
+    _other_code(outdated)  # one refused artifact: the pack still serves the other
+    partly = _pack_at(packs, "partly.zip")
+    refused = _pack_at(packs, "refused.zip", _refuse_every_artifact)
+    older = _pack_at(packs, "older.zip", lambda manifest: manifest.update(format=manifest["format"] - 1))
+    damaged = packs / f"{'cd' * 16}-damaged.zip"
+    damaged.write_bytes(b"PK not really")
+    foreign = packs / "my-pack.zip"  # not as pooch names a download: left
+    foreign.write_bytes(b"PK not really")
+    pruned = prune_cache()
+    assert [p for p in pruned if p.parent == packs] == sorted([refused, older, damaged])
+    assert usable.exists() and partly.exists() and foreign.exists()
+
+
+def test_make_prune_cache_script_prints_what_it_removes(isolated_cache):
+    current, outdated = _two_artifacts(isolated_cache)
+    _other_code(outdated)
+    script = [sys.executable, str(REPO_ROOT / "scripts" / "prune_cache.py")]
+    env = {**os.environ, "PYTHONPATH": str(REPO_ROOT / "src")}
+    dry = subprocess.run([*script, "--dry-run"], env=env, capture_output=True, text=True, check=True).stdout
+    assert f"would remove {outdated.name}" in dry and "would remove 1 file(s)" in dry and outdated.exists()
+    done = subprocess.run(script, env=env, capture_output=True, text=True, check=True).stdout
+    assert f"removed {outdated.name}" in done and not outdated.exists() and current.exists()

@@ -10,6 +10,7 @@ from .cache import (
     cache_only,
     clear_cache,
     load_or_build,
+    prune_cache,
     state_dict_to_cpu,
 )
 from .device import choose_device, one_thread, single_threaded, threads_allowed
@@ -28,7 +29,7 @@ __all__ = [
     "check_seed", "rng", "seed_everything",
     "choose_device", "one_thread", "single_threaded", "threads_allowed", "available_cores", "warm_cache",
     "CacheStoreWarning", "CorruptArtifactWarning", "NotCachedError", "cache_only", "artifact_key", "artifact_path",
-    "cache_dir", "clear_cache", "load_or_build", "state_dict_to_cpu", "source_digest",
+    "cache_dir", "clear_cache", "prune_cache", "load_or_build", "state_dict_to_cpu", "source_digest",
     "TrainerConfig", "TrainResult", "TrainedModel", "trainer_config", "learning_rate_factor", "move_to_device", "train",
     "format_seconds", "side_by_side", "show_progress", "progress_enabled",
     "PackMismatchError", "make_pack", "read_manifest", "release_pack_url", "unpack", "use_pretrained",

@@ -12,7 +12,9 @@ Storing never costs a build: when the file cannot be written (a full disk, a rea
 returned all the same and kept in memory until the process ends, with one :class:`CacheStoreWarning` per process.
 A build holds a lock beside its file (``<name>-<key16>.lock``, by ``fcntl.flock``; none where that is missing),
 so a second process that needs the same artifact waits and loads what the first stored, and what a killed build
-left (``.<name>-<key16>.*.tmp``) is removed then (``infra.cache_store`` writes and locks the files).
+left (``.<name>-<key16>.*.tmp``) is removed then. :func:`prune_cache` (``make prune-cache``) removes artifacts
+and downloaded packs that the installed code can no longer use, and leftover temporaries and locks
+(``infra.cache_store`` writes and locks the files).
 
 The folder is ``$HOI_CACHE`` when that is set, else ``$XDG_CACHE_HOME/hoi_tutorial``, else
 ``~/.cache/hoi_tutorial``.
@@ -47,6 +49,7 @@ import copy
 import dataclasses
 import functools
 import hashlib
+import importlib
 import inspect
 import json
 import os
@@ -63,8 +66,8 @@ from typing import Any, Callable, Iterable
 import numpy as np
 import torch
 
-from .cache_store import (STORE_FAILURES, CacheStoreWarning, artifact_lock, cache_files, describe_failure,
-                          remove_files, remove_stale_temporaries, save_atomic, warn_store_failed)
+from .cache_store import (PACK_FILE, STORE_FAILURES, CacheStoreWarning, artifact_lock, cache_files, describe_failure,
+                          leftovers, remove_files, remove_stale_temporaries, save_atomic, warn_store_failed)
 from .code_closure import code_closure, module_file
 from .cleaned_source import source_digest
 
@@ -82,6 +85,7 @@ __all__ = [
     "artifact_path",
     "load_or_build",
     "clear_cache",
+    "prune_cache",
     "state_dict_to_cpu",
 ]
 
@@ -601,6 +605,83 @@ def clear_cache(name: str | None = None) -> int:
     chosen = [file for file, artifact in cache_files(cache_dir()) if stem is None or stem.match(artifact.stem)]
     return sum(file.suffix != ".lock" for file in remove_files(chosen))
 
+
+def _installed_digest(module: str, memo: dict) -> str | None:
+    """What :func:`module_digests` gives for ``module`` in the installed library (``None``: no such module)."""
+    if module not in memo:
+        memo[module] = module_digests([module])[module] if module_file(module) is not None else None
+    return memo[module]
+
+
+def _records_modules(modules) -> bool:
+    """Whether ``modules`` is what an artifact records of the code it ran: ``{module name: sha256 hex}``."""
+    return isinstance(modules, dict) and all(isinstance(m, str) and isinstance(d, str) for m, d in modules.items())
+
+
+def _ran_other_code(modules: dict, memo: dict) -> bool:
+    """Whether ``modules`` (``{module: sha256}``, as an artifact records them) names a library module whose installed
+    source differs, or that is gone: the key of an artifact that ran it hashed other source than the installed."""
+    return any(_installed_digest(module, memo) != digest for module, digest in modules.items())
+
+
+def _stale_artifact(path: pathlib.Path, memo: dict) -> bool:
+    """Whether no key of the installed code can reach the artifact file ``path``: it cannot be read, is of another
+    :data:`FORMAT`, or ran library code whose installed source differs."""
+    try:
+        # mmap: the tensors are mapped, not read; only the format and the modules are looked at
+        blob = torch.load(path, map_location="cpu", weights_only=True, mmap=True)
+    except Exception:  # truncated, not a zip, a forbidden pickle: nothing can load it
+        return True
+    if not isinstance(blob, dict) or blob.get("format") != FORMAT or not _records_modules(blob.get("modules")):
+        return True
+    return _ran_other_code(blob["modules"], memo)
+
+
+def _stale_pack(path: pathlib.Path, memo: dict) -> bool:
+    """Whether the downloaded pack ``path`` can serve the installed code nothing: it cannot be read, is of another
+    format (``pack.read_manifest`` refuses it), or every artifact in it ran code whose installed source differs
+    (what ``pack.unpack`` would refuse)."""
+    # Imported by name, not by an import statement: the cache's own modules are left out of every key and import
+    # only each other, and code_closure reads import statements, inside functions too.
+    pack = importlib.import_module(f"{__package__}.pack")
+    try:
+        records = pack.read_manifest(path)["files"]
+        recorded = [record["modules"] for record in records]
+    except (ValueError, OSError, LookupError, TypeError):  # PackMismatchError is a ValueError
+        return True
+    if not all(_records_modules(modules) for modules in recorded):
+        return True
+    return all(_ran_other_code(modules, memo) for modules in recorded)
+
+
+def prune_cache(dry_run: bool = False) -> list[pathlib.Path]:
+    """Remove from the cache what the installed code can no longer use, and what killed runs left behind.
+
+    Removed from the cache folder: artifact files (``<name>-<key16>.pt``) that cannot be read, are of another
+    :data:`FORMAT`, or ran a library module whose installed source differs or is gone (the ``"modules"`` each
+    records: no key of the installed code can reach them); the temporaries of killed builds
+    (``.<name>-<key16>.*.tmp``); lock files (``<name>-<key16>.lock``) whose artifact is gone. The temporaries and
+    lock of an artifact whose lock a build holds now are left (without ``fcntl`` no lock is seen: prune while no
+    build runs). Removed from ``packs/``: downloaded packs (``<md5>-<file>.zip``, as pooch names them) that cannot
+    be read, are of another pack format, or whose every artifact the installed code would refuse. An artifact is
+    judged by what it records, not by its payload (one that fails its checksum is rebuilt by :func:`load_or_build`).
+    Nothing else is touched: other names, other folders (the ledger's ``ledger/``).
+
+    Args:
+        dry_run: only say what would be removed.
+
+    Returns:
+        the files removed (with ``dry_run``: that would be), sorted.
+    """
+    folder, memo = cache_dir(), {}
+    files = cache_files(folder)
+    doomed = [file for file, artifact in files if file == artifact and _stale_artifact(file, memo)]
+    doomed += leftovers(files, doomed)
+    packs = folder / "packs"
+    if packs.is_dir():
+        doomed += [pack for pack in sorted(packs.iterdir())
+                   if pack.is_file() and PACK_FILE.match(pack.name) and _stale_pack(pack, memo)]
+    return sorted(doomed) if dry_run else remove_files(doomed)
 
 
 def state_dict_to_cpu(module: torch.nn.Module) -> "OrderedDict[str, torch.Tensor]":

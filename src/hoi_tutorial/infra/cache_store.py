@@ -34,17 +34,18 @@ try:
 except ImportError:  # Windows: no advisory file locks, so two processes may both build one artifact
     fcntl = None
 
-__all__ = ["CacheStoreWarning", "LockState", "artifact_lock", "cache_files", "describe_failure", "lock_is_free",
-           "lock_path", "remove_files", "remove_lock_file", "remove_stale_temporaries", "save_atomic", "temporaries_of",
-           "warn_store_failed"]
+__all__ = ["CacheStoreWarning", "LockState", "artifact_lock", "cache_files", "describe_failure", "leftovers",
+           "lock_is_free", "lock_path", "remove_files", "remove_lock_file", "remove_stale_temporaries", "save_atomic",
+           "temporaries_of", "warn_store_failed"]
 
 STORE_FAILURES = (OSError, RuntimeError)  # what storing raises: OSError of any errno; torch.save's RuntimeError
 # The cache's own file names: an artifact, its lock, its temporaries (save_atomic's, and a pack's unpacking's:
-# ".<name>-<key16>.pt.*.tmp")
+# ".<name>-<key16>.pt.*.tmp"), and a pack as pooch names a download ("<md5 of the URL>-<file name>").
 _STEM = r"[A-Za-z_][A-Za-z0-9_]{0,99}-[0-9a-f]{16}"
 _ARTIFACT_FILE = re.compile(rf"^({_STEM})\.pt$")
 _LOCK_FILE = re.compile(rf"^({_STEM})\.lock$")
 _TEMPORARY_FILE = re.compile(rf"^\.({_STEM})\..*\.tmp$")
+PACK_FILE = re.compile(r"^[0-9a-f]{32}-[^/\\]+\.zip$")
 
 
 class CacheStoreWarning(UserWarning):
@@ -243,7 +244,7 @@ def remove_lock_file(path: pathlib.Path) -> bool:
 
 
 # ----------------------------------------------------------------------------------------------
-# the cache's own files, for clearing
+# the cache's own files, for clearing and pruning
 
 
 def cache_files(folder: pathlib.Path) -> list[tuple[pathlib.Path, pathlib.Path]]:
@@ -256,6 +257,17 @@ def cache_files(folder: pathlib.Path) -> list[tuple[pathlib.Path, pathlib.Path]]
             found.append((file, folder / f"{match[1]}.pt"))
     return found
 
+
+def leftovers(files: list[tuple[pathlib.Path, pathlib.Path]], doomed: list[pathlib.Path]) -> list[pathlib.Path]:
+    """Of ``files`` (:func:`cache_files`), what killed runs left: temporaries whose artifact's lock no build holds,
+    and such unheld lock files whose artifact is gone or ``doomed``."""
+    found = []
+    for file, artifact in files:
+        if file == artifact or not lock_is_free(artifact):
+            continue
+        if file.suffix == ".tmp" or not artifact.exists() or artifact in doomed:
+            found.append(file)
+    return found
 
 
 def remove_files(files: list[pathlib.Path]) -> list[pathlib.Path]:
