@@ -252,3 +252,16 @@ def test_a_planned_claim_cannot_be_recorded(tmp_cache, monkeypatch):
     monkeypatch.setattr(records, "claim", lambda key: planned)
     with pytest.raises(ValueError, match="planned"):
         ledger.record("samp.planned_example", seed=0, scale="toy", ours="text")
+
+
+def test_the_library_digest_leaves_out_how_artifacts_are_stored(monkeypatch):
+    # A record goes stale when code a claim computes with changes; mending the cache or the pack computes nothing.
+    from hoi_tutorial.ledger import records
+
+    seen = {}
+    monkeypatch.setattr(records, "_library_digest", lambda stamp: seen.setdefault("files", [p for p, _ in stamp]))
+    records.library_digest()
+    hashed = {records._module_name(p) for p in seen["files"]}
+    assert "hoi_tutorial.nifty.guidance" in hashed and "hoi_tutorial.intervals" in hashed
+    assert not hashed & {"hoi_tutorial.infra.cache", "hoi_tutorial.infra.cache_store", "hoi_tutorial.infra.pack",
+                         "hoi_tutorial.ledger.records"}

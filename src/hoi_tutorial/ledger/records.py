@@ -19,7 +19,7 @@ from typing import Mapping, Optional, Sequence
 
 import numpy as np
 
-from ..infra.cache import cache_dir
+from ..infra.cache import STORAGE_MODULES, cache_dir
 from ..infra.cleaned_source import source_digest
 from ..intervals import VERDICTS
 from .claims import CLAIMS, PAPERS, Claim, claim
@@ -135,6 +135,16 @@ def chapter_digest(chapter: str) -> Optional[str]:
     return digest.hexdigest()
 
 
+# The artifact cache's own modules and the pack's: how artifacts are stored and shipped, not what a claim computes.
+_STORAGE = STORAGE_MODULES | {"hoi_tutorial.infra.pack"}
+
+
+def _module_name(path: pathlib.Path) -> str:
+    """``hoi_tutorial.infra.cache`` for ``.../hoi_tutorial/infra/cache.py`` (a package: its ``__init__`` dropped)."""
+    parts = (_PACKAGE.name, *path.relative_to(_PACKAGE).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
 @functools.lru_cache(maxsize=None)
 def _library_digest(stamp) -> str:
     digest = hashlib.sha256()
@@ -144,10 +154,11 @@ def _library_digest(stamp) -> str:
 
 
 def library_digest() -> str:
-    """SHA-256 of the library's source (every ``.py`` file of ``hoi_tutorial`` except this ledger package,
-    which computes nothing a claim depends on), comments, docstrings and blank lines aside
-    (:func:`hoi_tutorial.infra.source_digest`): a record goes stale when the code changes, not its prose."""
-    files = sorted(p for p in _PACKAGE.rglob("*.py") if "ledger" not in p.relative_to(_PACKAGE).parts)
+    """SHA-256 of the library's source (every ``.py`` file of ``hoi_tutorial`` except this ledger package and the
+    code that stores artifacts and packs, which compute nothing a claim depends on), comments, docstrings and blank
+    lines aside (:func:`hoi_tutorial.infra.source_digest`): a record goes stale when the code changes, not its prose."""
+    files = sorted(p for p in _PACKAGE.rglob("*.py") if "ledger" not in p.relative_to(_PACKAGE).parts
+                   and _module_name(p) not in _STORAGE)
     return _library_digest(tuple((p, p.stat().st_mtime_ns) for p in files))
 
 
