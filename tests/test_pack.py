@@ -202,7 +202,18 @@ def test_use_pretrained_reads_the_chapter_parameter(tmp_path, monkeypatch):
     assert pack.use_pretrained("", "toy", 0) is None
     with pytest.raises(TypeError, match="PRETRAINED: expected False, True, or a pack's path or URL"):
         pack.use_pretrained(3, "toy", 0)
-    # True: the installed release's pack, only with its SHA-256 from the package's registry
+    # a development version has no release, so no release pack, whatever the registry or sha256 say
+    monkeypatch.setattr(pack, "_version", lambda: "0.2.0.dev0")
+    monkeypatch.setitem(pack.RELEASED_PACKS, pack.pack_name("toy", 2), "AB" * 32)
+    for sha256 in (None, "AB" * 32):
+        with pytest.raises(pack.PackMismatchError, match=r"0\.2\.0\.dev0 is a development version .* has no release "
+                                                         r"pack.*local path.*'#sha256=<hex>'"):
+            pack.use_pretrained(True, "toy", 2, sha256=sha256)
+    with pytest.raises(pack.PackMismatchError, match="development version"):
+        pack.release_pack_url("toy", 2)
+    assert pack.pack_name("toy", 2) == "hoi_tutorial-0.2.0.dev0-toy-seed2.zip"  # a class's own pack of main
+    # True on a release: the release's pack, only with its SHA-256 from the package's registry
+    monkeypatch.setattr(pack, "_version", lambda: "0.1.0")
     name = pack.pack_name("toy", 2)
     monkeypatch.setattr(pack, "RELEASED_PACKS", {})
     with pytest.raises(pack.PackMismatchError, match=f"lists no SHA-256 for a released pack {name}.*'#sha256=<hex>'"):
@@ -211,9 +222,7 @@ def test_use_pretrained_reads_the_chapter_parameter(tmp_path, monkeypatch):
     monkeypatch.setattr(pack, "unpack", lambda source, **kw: seen.update(source=source, **kw))
     monkeypatch.setitem(pack.RELEASED_PACKS, name, "AB" * 32)
     pack.use_pretrained(True, "toy", 2)
-    from hoi_tutorial import __version__
-
-    assert seen["source"].endswith(f"/v{__version__}/hoi_tutorial-{__version__}-toy-seed2.zip")
+    assert seen["source"].endswith("/v0.1.0/hoi_tutorial-0.1.0-toy-seed2.zip")
     assert seen["sha256"] == "ab" * 32
     with pytest.raises(pack.PackMismatchError, match="is not the SHA-256 that hoi_tutorial .* lists"):
         pack.use_pretrained(True, "toy", 2, sha256="cd" * 32)

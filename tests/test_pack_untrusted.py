@@ -284,6 +284,7 @@ def test_a_download_whose_sha256_differs_is_refused_and_deleted(tmp_path, packed
 def test_the_release_pack_is_checked_against_the_registry(tmp_path, packed, server, monkeypatch):
     path, _ = packed
     root, base, asked = server
+    monkeypatch.setattr(pack, "_version", lambda: "0.1.0")  # a release (a development version has no release pack)
     name = pack.pack_name("toy", 0)
     shutil.copy(path, root / name)
     monkeypatch.setattr(pack, "release_pack_url", lambda scale, seed, version=None: f"{base}/{name}")

@@ -1,4 +1,5 @@
 """The release metadata agree: one version, one repository address, the licences the metadata names."""
+import datetime
 import re
 from pathlib import Path
 
@@ -20,15 +21,63 @@ def _citation():
     return yaml.safe_load((ROOT / "CITATION.cff").read_text())
 
 
+try:
+    from packaging.version import Version
+except ImportError:  # packaging comes with pip's environments; the project's two forms are simple enough to parse
+    class Version:
+        """``X.Y.Z`` or ``X.Y.Z.devN``, ordered as PEP 440 orders them (a dev version before its release)."""
+
+        def __init__(self, text):
+            match = re.fullmatch(r"(\d+)\.(\d+)\.(\d+)(?:\.dev(\d+))?", text)
+            assert match, f"expected a version X.Y.Z or X.Y.Z.devN, got {text!r}"
+            self.release = tuple(int(part) for part in match.groups()[:3])
+            self.dev = None if match.group(4) is None else int(match.group(4))
+            self.is_devrelease, self.base_version = self.dev is not None, ".".join(map(str, self.release))
+
+        def _key(self):
+            return self.release, (-1, self.dev) if self.is_devrelease else (0, 0)
+
+        def __eq__(self, other):
+            return self._key() == other._key()
+
+        def __gt__(self, other):
+            return self._key() > other._key()
+
+
+RELEASE_HEADING = re.compile(r"^## \[(\d+\.\d+\.\d+)\] — (\d{4}-\d{2}-\d{2})$", flags=re.M)
+
+
 def test_one_version_everywhere():
+    """The package is a release (``X.Y.Z``: everything names it, and CHANGELOG dates it) or the code after one
+    (``X.Y.Z.devN``: the work is listed under ``## [Unreleased]``, and CITATION.cff still cites the last release,
+    the one a reader can install)."""
     version = _pyproject()["project"]["version"]
     assert hoi_tutorial.__version__ == version
-    assert str(_citation()["version"]) == version
-    released = re.findall(r"^## \[(\d+\.\d+\.\d+)\] — (\d{4}-\d{2}-\d{2})$", (ROOT / "CHANGELOG.md").read_text(),
-                          flags=re.M)
+    assert re.fullmatch(r"\d+\.\d+\.\d+(\.dev\d+)?", version), f"expected X.Y.Z or X.Y.Z.devN, got {version!r}"
+    changelog = (ROOT / "CHANGELOG.md").read_text()
+    released = RELEASE_HEADING.findall(changelog)
     assert released, "CHANGELOG.md: expected release headings '## [X.Y.Z] — YYYY-MM-DD'"
-    assert released[0][0] == version  # the newest release is the package's version
-    assert str(_citation()["date-released"]) == released[0][1]
+    newest, date = released[0]
+    datetime.date.fromisoformat(date)  # a date that exists
+    headings = re.findall(r"^## .*$", changelog, flags=re.M)
+    citation = _citation()
+    if Version(version).is_devrelease:
+        assert Version(Version(version).base_version) > Version(newest), \
+            f"{version} is the development of a release newer than CHANGELOG.md's newest, {newest}"
+        assert headings[0] == "## [Unreleased]", "CHANGELOG.md: expected '## [Unreleased]' on top for a dev version"
+        assert str(citation["version"]) == newest  # the last release, which a reader can install and cite
+    else:
+        assert newest == version == str(citation["version"])  # the newest release is the package's version
+        unreleased = re.search(r"^## \[Unreleased\]\n(.*?)(?=^## )", changelog, flags=re.M | re.S)
+        assert unreleased is None or not unreleased.group(1).strip(), \
+            f"CHANGELOG.md lists unreleased changes, so the code is not {version}: make its version the next X.Y.Z.dev0"
+    assert str(citation["date-released"]) == date
+
+
+def test_the_version_rule_knows_dev_versions():
+    assert Version("0.2.0.dev0").is_devrelease and not Version("0.2.0").is_devrelease
+    assert Version("0.2.0") > Version("0.2.0.dev0") > Version("0.1.0")
+    assert Version(Version("0.2.0.dev3").base_version) == Version("0.2.0")
 
 
 def test_one_repository_address():

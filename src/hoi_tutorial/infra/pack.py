@@ -56,7 +56,7 @@ from .presets import check_scale
 from .seeding import check_seed
 
 __all__ = ["PACK_FORMAT", "RELEASED_PACKS", "PackMismatchError", "UnpackReport", "pack_name", "release_pack_url",
-           "make_pack", "read_manifest", "unpack", "use_pretrained"]
+           "is_development_version", "make_pack", "read_manifest", "unpack", "use_pretrained"]
 
 PACK_FORMAT = 2  # 2: the module digests ignore comments, docstrings and blank lines (cache.FORMAT 2)
 MANIFEST = "manifest.json"
@@ -65,10 +65,13 @@ _ARTIFACT_FILE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,99}-[0-9a-f]{16}\.pt$")
 # Where a release's pack is published (its assets), by version, scale and seed.
 RELEASE_URL = "https://github.com/hoi-tutorial/hoi_tutorial/releases/download/v{version}/{name}"
 # The SHA-256 (hex) of each pack a release published, by file name (pack_name): what ``PRETRAINED = True`` checks a
-# download against, as pooch's ``known_hash`` does. A release adds its packs' hashes (scripts/make_pack.py prints
-# them) before it is tagged: no artifact's code reaches this module, so the edit leaves the packs valid. No release
-# has a pack yet, so ``True`` is refused until one does.
+# download against, as pooch's ``known_hash`` does. A release adds its packs' hashes before it is tagged
+# (``python scripts/release.py --register PACK.zip``, which rewrites this literal: keep it a plain dict of strings):
+# no artifact's code reaches this module, so the edit leaves the packs valid. No release has a pack yet, so
+# ``True`` is refused until one does.
 RELEASED_PACKS: dict = {}
+# A development version (PEP 440 ``X.Y.Z.devN``, the code between two releases) has no release, hence no pack.
+_DEVELOPMENT_VERSION = re.compile(r"\.dev\d+(?:\+[A-Za-z0-9.]+)?$")
 
 # Limits on what a pack may ask of the reader's machine, checked before anything is decompressed.
 _MANIFEST_MAX_BYTES = 16 << 20  # a record is a name, a size and a digest per module: 16 MB holds thousands
@@ -95,9 +98,29 @@ def pack_name(scale: str = "toy", seed: int = 0, version: Optional[str] = None) 
     return f"hoi_tutorial-{version or _version()}-{check_scale(scale)}-seed{check_seed(seed)}.zip"
 
 
+def is_development_version(version: str) -> bool:
+    """Whether ``version`` is a development version (``0.2.0.dev0``): code between releases, which no release
+    published, so no release pack was built from it."""
+    return bool(_DEVELOPMENT_VERSION.search(version))
+
+
+def _no_release_pack(version: str, what: str) -> PackMismatchError:
+    return PackMismatchError(
+        f"{what}: hoi_tutorial {version} is a development version (code between releases, such as the repository's "
+        "main branch), and a development version has no release pack. Set PRETRAINED to a pack's local path, or to "
+        "its URL ending '#sha256=<hex>' (a pack built from this code by `make artifacts`), or install a release, or "
+        "set PRETRAINED = False to build everything")
+
+
 def release_pack_url(scale: str = "toy", seed: int = 0, version: Optional[str] = None) -> str:
-    """Where the release ``version`` (default: the installed one) publishes its pack for ``scale`` and ``seed``."""
+    """Where the release ``version`` (default: the installed one) publishes its pack for ``scale`` and ``seed``.
+
+    Raises:
+        PackMismatchError: ``version`` is a development version, which has no release to publish a pack.
+    """
     version = version or _version()
+    if is_development_version(version):
+        raise _no_release_pack(version, f"release_pack_url(version={version!r})")
     return RELEASE_URL.format(version=version, name=pack_name(scale, seed, version))
 
 
@@ -646,7 +669,10 @@ def unpack(source: Union[str, os.PathLike], cache: Union[str, os.PathLike, None]
 
 def _release_sha256(scale: str, seed: int, sha256: Optional[str]) -> str:
     """The SHA-256 that the installed release's pack for ``scale`` and ``seed`` must have: :data:`RELEASED_PACKS`'
-    entry, or the caller's ``sha256`` (which must agree with it where there is one)."""
+    entry, or the caller's ``sha256`` (which must agree with it where there is one). A development version has
+    neither a release nor its pack: refused whatever ``sha256`` says."""
+    if is_development_version(_version()):
+        raise _no_release_pack(_version(), "PRETRAINED = True")
     name = pack_name(scale, seed)
     known = _normal_sha256(RELEASED_PACKS.get(name), f"RELEASED_PACKS[{name!r}]")
     given = _normal_sha256(sha256, "sha256")
@@ -666,8 +692,9 @@ def use_pretrained(pretrained, scale: str, seed: int, sha256: Optional[str] = No
                    chapter: Optional[str] = None) -> Optional[UnpackReport]:
     """What a chapter's ``PRETRAINED`` parameter asks for: ``False`` / ``None`` / ``""`` nothing (no network);
     ``True`` the installed release's pack for ``scale`` and ``seed`` (:func:`release_pack_url`), checked against
-    its SHA-256 in :data:`RELEASED_PACKS` (refused where there is none, unless ``sha256`` is given); a string a
-    pack's local path, or an http(s) URL with its SHA-256 (``sha256``, or the URL ending ``#sha256=<hex>``).
+    its SHA-256 in :data:`RELEASED_PACKS` (refused where there is none, unless ``sha256`` is given, and for a
+    development version, which has no release); a string a pack's local path, or an http(s) URL with its SHA-256
+    (``sha256``, or the URL ending ``#sha256=<hex>``).
     ``chapter`` (the chapter's notebook name) unpacks only what that chapter uses (:func:`unpack`)."""
     if pretrained is None or pretrained is False or pretrained == "":
         return None
