@@ -8,6 +8,8 @@ import ast
 import importlib.metadata
 import importlib.util
 import os
+import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -124,6 +126,28 @@ def test_the_core_install_brings_no_test_book_or_render_package():
     assert [Requirement(r).name for r in project["optional-dependencies"]["render"]] == ["pyvista"]
     for name in ("pytest", "hypothesis", "nbval", "diffusers"):
         assert any(Requirement(r).name == name for r in project["optional-dependencies"]["test"])
+
+
+def test_the_setup_cell_installs_the_version_the_book_is_built_from(tmp_path):
+    """A release's pages install its tag, so that a page and the code it installs stay together after main moves on;
+    a development version has no tag, and its pages install main."""
+    for name in ("_config.yml", "pyproject.toml", str(notebook_cells.RENDER_MODULE)):
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(REPO_ROOT / name, tmp_path / name)
+    pyproject = tmp_path / "pyproject.toml"
+    for version, ref in (("1.2.3", "v1.2.3"), ("1.3.0.dev0", "main")):
+        pyproject.write_text(re.sub(r'^version = ".*"$', f'version = "{version}"', pyproject.read_text(), count=1,
+                                    flags=re.M))
+        assert notebook_cells.package_version(tmp_path) == version and notebook_cells.git_ref(version) == ref
+        assert notebook_cells.default_install_target(root=tmp_path) == (
+            "hoi_tutorial @ git+https://github.com/hoi-tutorial/hoi_tutorial@" + ref)
+        assert notebook_cells.default_install_target(True, root=tmp_path).startswith("hoi_tutorial[render] @ git+")
+        comment = notebook_cells.setup_source(root=tmp_path).splitlines()[1]
+        assert comment == ("# The release this page was built from: tag v1.2.3." if ref != "main"
+                           else "# The development version: main (this page was built from code after the last "
+                                "release, which has no tag).")
+    version = notebook_cells.package_version()
+    assert notebook_cells.default_install_target().endswith("@" + notebook_cells.git_ref(version))
 
 
 def test_every_chapter_has_the_current_setup_cell():
