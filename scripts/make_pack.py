@@ -5,8 +5,9 @@
     python scripts/make_pack.py --no-run --cache DIR    # pack a cache a book run already filled
 
 The pack is ``<out>/hoi_tutorial-<version>-<scale>-seed<seed>.zip`` (``hoi_tutorial.infra.make_pack``), with its
-manifest beside it as ``.json`` and its SHA-256 printed: publish both with the release whose code built it (and add
-the hash to ``hoi_tutorial.infra.pack.RELEASED_PACKS`` for a release's own pack). A chapter unpacks it with
+manifest beside it as ``.json`` and its SHA-256 printed: publish both with the release whose code built it (for a
+release's own pack, ``python scripts/release.py --register <pack>`` adds the hash to
+``hoi_tutorial.infra.pack.RELEASED_PACKS``). A chapter unpacks it with
 ``PRETRAINED = "<path>"`` or ``"<URL>#sha256=<hash>"`` (or ``True`` for the release's own), and only where the
 installed code is the code that built each artifact.
 """
