@@ -264,4 +264,4 @@ def test_the_library_digest_leaves_out_how_artifacts_are_stored(monkeypatch):
     hashed = {records._module_name(p) for p in seen["files"]}
     assert "hoi_tutorial.nifty.guidance" in hashed and "hoi_tutorial.intervals" in hashed
     assert not hashed & {"hoi_tutorial.infra.cache", "hoi_tutorial.infra.cache_store", "hoi_tutorial.infra.pack",
-                         "hoi_tutorial.ledger.records"}
+                         "hoi_tutorial.ledger.records", "hoi_tutorial"}

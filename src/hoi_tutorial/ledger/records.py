@@ -135,8 +135,9 @@ def chapter_digest(chapter: str) -> Optional[str]:
     return digest.hexdigest()
 
 
-# The artifact cache's own modules and the pack's: how artifacts are stored and shipped, not what a claim computes.
-_STORAGE = STORAGE_MODULES | {"hoi_tutorial.infra.pack"}
+# The artifact cache's own modules and the pack's: how artifacts are stored and shipped, not what a claim computes;
+# and the package's __init__, which holds its version (a release changes it and nothing a claim computes).
+_STORAGE = STORAGE_MODULES | {"hoi_tutorial.infra.pack", "hoi_tutorial"}
 
 
 def _module_name(path: pathlib.Path) -> str:
