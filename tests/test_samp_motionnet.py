@@ -518,12 +518,16 @@ def test_methods_are_compared_over_the_runs_both_performed():
         return ev.GoalRunResults(times, pe, pe, np.isfinite(times) & (pe < 30), rollout=None)
 
     inf = math.inf
-    a = results([1, 1, 1, 1, 1, inf], [5, 6, 7, 5, 6, inf])
-    b = results([1, 1, 1, 1, inf, 1], [15, 16, 17, 45, inf, 9])
+    a = results([1, 1, 1, 1, 1, 1, 1, inf], [5, 6, 7, 5, 6, 5, 6, inf])
+    b = results([1, 1, 1, 1, 1, 1, inf, 1], [15, 16, 17, 45, 16, 15, inf, 9])
     interval = ev.paired_over_acted(a, b, "position_error", seed=0)
-    assert interval.n == 4 and interval.estimate == pytest.approx(-17.5)  # (-10 - 10 - 10 - 40) / 4: both acted
+    assert interval.n == 6 and interval.estimate == pytest.approx(-15.0)  # (5 × -10 - 40) / 6: both acted
     assert interval.holds("below")  # a's PE is lower on every run both performed, the 45 cm miss included
-    assert ev.paired_over_acted(a, results([inf] * 6, [inf] * 6), "position_error") is None
+    four = ev.paired_over_acted(results(a.execution_time[:4], a.position_error[:4]),
+                                results(b.execution_time[:4], b.position_error[:4]),
+                                "position_error")
+    assert four.n == 4 and four.verdict("below") == "inconclusive"  # four runs are too few for any 95 % interval
+    assert ev.paired_over_acted(a, results([inf] * 8, [inf] * 8), "position_error") is None
     with pytest.raises(ValueError, match="measure"):
         ev.paired_over_acted(a, b, "speed")
     with pytest.raises(ValueError, match="same tasks"):
@@ -532,7 +536,7 @@ def test_methods_are_compared_over_the_runs_both_performed():
     c = results([1, 1, 1], [20, 21, 22])
     d = results([1, inf, 1], [10, inf, 12])
     pooled = ev.paired_over_acted([a, c], [b, d], "position_error", seed=0)
-    assert pooled.n == 6 and pooled.estimate == pytest.approx((-70 + 10 + 10) / 6)
+    assert pooled.n == 8 and pooled.estimate == pytest.approx((-90 + 10 + 10) / 8)
     assert ev.paired_over_acted([a], [b], "position_error", seed=0).estimate == interval.estimate
     with pytest.raises(ValueError, match="equally long"):
         ev.paired_over_acted([a, c], [b], "position_error")
