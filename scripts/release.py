@@ -233,6 +233,13 @@ def _pack_manifest(path: Path) -> dict:
 # the modes
 
 
+def _require_newer(version: str, released: list, mode: str) -> None:
+    """Refuse a ``version`` that is not newer than CHANGELOG.md's newest release (``released[0]``, if any)."""
+    if released and _release_tuple(version) <= _release_tuple(released[0][0]):
+        raise ReleaseError(f"{mode} {version}: expected a version newer than CHANGELOG.md's newest release, "
+                           f"{released[0][0]}")
+
+
 def prepare(root: Path, version: str, date: str) -> int:
     """Make the checkout the release ``version`` of ``date``: pyproject.toml, ``__version__``, CITATION.cff (version,
     date-released), CHANGELOG.md (Unreleased becomes ``## [version] — date`` below a fresh empty Unreleased) and the
@@ -240,9 +247,7 @@ def prepare(root: Path, version: str, date: str) -> int:
     _require_release(version, "--prepare")
     changelog = _read(root, CHANGELOG)
     first, unreleased, released = changelog_state(changelog)
-    if released and _release_tuple(version) <= _release_tuple(released[0][0]):
-        raise ReleaseError(f"--prepare {version}: expected a version newer than CHANGELOG.md's newest release, "
-                           f"{released[0][0]}")
+    _require_newer(version, released, "--prepare")
     if first != UNRELEASED:
         raise ReleaseError(f"{CHANGELOG}: expected '{UNRELEASED}' as the first '## ' heading (what {version} "
                            f"releases), found {first!r}")
@@ -272,9 +277,7 @@ def develop(root: Path, next_version: str) -> int:
     _require_release(next_version, "--develop")
     changelog = _read(root, CHANGELOG)
     first, _, released = changelog_state(changelog)
-    if released and _release_tuple(next_version) <= _release_tuple(released[0][0]):
-        raise ReleaseError(f"--develop {next_version}: expected the next release's version, newer than CHANGELOG.md's "
-                           f"newest release, {released[0][0]}")
+    _require_newer(next_version, released, "--develop")
     version = f"{next_version}.dev0"
     texts = _with_version(root, version)
     if first != UNRELEASED:

@@ -22,6 +22,8 @@ from hoi_tutorial.infra import cache as cache_module
 from hoi_tutorial.infra import cache_store, seeding
 from hoi_tutorial.infra.code_closure import code_closure
 
+from helpers import counting
+
 try:
     import fcntl
 except ImportError:  # Windows: the cache takes no locks
@@ -39,16 +41,6 @@ def isolated_cache(tmp_path, monkeypatch):
     monkeypatch.setattr(cache_store, "_STORE_WARNED", False)
     monkeypatch.setattr(cache_module, "_UNSTORED", {})
     return folder
-
-
-def _counting(build):
-    calls = []
-
-    def wrapped():
-        calls.append(1)
-        return build()
-
-    return wrapped, calls
 
 
 def _files(folder: Path) -> list[str]:
@@ -96,7 +88,7 @@ def test_a_failed_store_keeps_the_build_and_warns_once(isolated_cache, monkeypat
             raise exc
 
         monkeypatch.setattr(cache_store.os, where, fail)
-    build, calls = _counting(lambda: {"w": torch.arange(5.0)})
+    build, calls = counting(lambda: {"w": torch.arange(5.0)})
     with pytest.warns(CacheStoreWarning) as record:
         built = load_or_build("precious", {"n": 5}, build)
     (warning,) = _store_warnings(record)
@@ -118,7 +110,7 @@ def test_a_failed_store_keeps_the_build_and_warns_once(isolated_cache, monkeypat
             load_or_build("precious", {"n": 5}, build, verbose=False)
         # Another artifact that fails to store is kept too, but one warning per process is all (the cause, a full
         # disk or a read-only folder, is the same for every artifact).
-        build_other, other_calls = _counting(lambda: [1, 2])
+        build_other, other_calls = counting(lambda: [1, 2])
         assert load_or_build("other", {}, build_other, verbose=False) == [1, 2]
         assert load_or_build("other", {}, build_other, verbose=False) == [1, 2]
     assert "[cache] kept precious" in capsys.readouterr().out
@@ -131,7 +123,7 @@ def test_a_lock_file_that_cannot_be_created_builds_without_the_lock(isolated_cac
         raise OSError(errno.EROFS, "Read-only file system", str(path))
 
     monkeypatch.setattr(cache_store, "_open_lock_file", read_only)
-    build, calls = _counting(lambda: 7)
+    build, calls = counting(lambda: 7)
     with pytest.warns(CacheStoreWarning, match="could not create the lock file of locked-.*Read-only file system"):
         assert load_or_build("locked", {}, build, verbose=False) == 7
     assert [name.split("-")[0] for name in _files(isolated_cache)] == ["locked"]  # stored all the same
@@ -184,7 +176,7 @@ def test_two_processes_asking_for_one_artifact_build_it_once(isolated_cache, tmp
 @needs_locks
 def test_a_waiting_build_loads_what_the_holder_stored(isolated_cache, capsys):
     # One process, two open lock files: a flock on one excludes the other (what a second process sees).
-    build, calls = _counting(lambda: "built here")
+    build, calls = counting(lambda: "built here")
     path = cache_module.artifact_path("waited", cache_module.artifact_key("waited", {}, (build,)))
     path.parent.mkdir(parents=True, exist_ok=True)
     fd = os.open(cache_store.lock_path(path), os.O_RDWR | os.O_CREAT)
@@ -214,7 +206,7 @@ def test_a_waiting_build_loads_what_the_holder_stored(isolated_cache, capsys):
 
 
 def test_a_killed_builds_temporaries_are_removed_by_the_next_build(isolated_cache):
-    build, calls = _counting(lambda: torch.ones(3))
+    build, calls = counting(lambda: torch.ones(3))
     path = cache_module.artifact_path("interrupted", cache_module.artifact_key("interrupted", {}, (build,)))
     path.parent.mkdir(parents=True, exist_ok=True)
     stale = [path.parent / f".{path.stem}.k1ll3d_x.tmp", path.parent / f".{path.name}.unpack01.tmp"]

@@ -35,6 +35,8 @@ from hoi_tutorial.infra import (
     train,
 )
 
+from helpers import counting
+
 
 # ---------------------------------------------------------------------------------- presets
 
@@ -147,16 +149,6 @@ class _Config:
     shape: tuple = (2, 3)
 
 
-def _counting(build):
-    calls = []
-
-    def wrapped():
-        calls.append(1)
-        return build()
-
-    return wrapped, calls
-
-
 def _rich_artifact():
     return {
         "bool": np.array([True, False]),
@@ -193,7 +185,7 @@ def _assert_same(a, b):
 
 
 def test_build_then_load_gives_identical_content(isolated_cache, capsys):
-    build, calls = _counting(_rich_artifact)
+    build, calls = counting(_rich_artifact)
     built = load_or_build("rich", _Config(), build)
     assert "[cache] building rich" in capsys.readouterr().out
     loaded = load_or_build("rich", _Config(), build)
@@ -211,7 +203,7 @@ def test_build_then_load_gives_identical_content(isolated_cache, capsys):
 
 def test_an_artifact_loaded_again_in_a_process_is_a_copy_of_the_first_load(isolated_cache, monkeypatch, capsys):
     net = torch.nn.Linear(3, 2)
-    build, calls = _counting(lambda: {**_rich_artifact(), "state": state_dict_to_cpu(net)})
+    build, calls = counting(lambda: {**_rich_artifact(), "state": state_dict_to_cpu(net)})
     built = load_or_build("again", _Config(), build)
     real, read = cache_module._load_verified, []
     monkeypatch.setattr(cache_module, "_load_verified", lambda *args: read.append(args) or real(*args))
@@ -260,7 +252,7 @@ def test_changed_config_gives_a_new_key_and_a_rebuild():
     # numpy scalars hash like the python numbers they hold, tuples like lists
     assert artifact_key("thing", {"n": np.int64(3), "s": (1, 2)}, ()) == \
         artifact_key("thing", {"n": 3, "s": [1, 2]}, ())
-    build, calls = _counting(make)
+    build, calls = counting(make)
     load_or_build("thing", _Config(), build, verbose=False)
     load_or_build("thing", _Config(size=4), build, verbose=False)
     load_or_build("thing", _Config(), build, verbose=False)
@@ -339,7 +331,7 @@ def test_the_caches_own_modules_are_left_out_of_every_key():
 
 @pytest.mark.parametrize("damage", ["truncate", "garbage", "empty"])
 def test_a_corrupt_file_is_detected_and_rebuilt(isolated_cache, damage):
-    build, calls = _counting(lambda: {"w": torch.randn(50, generator=torch.Generator().manual_seed(0))})
+    build, calls = counting(lambda: {"w": torch.randn(50, generator=torch.Generator().manual_seed(0))})
     original = load_or_build("fragile", {}, build, verbose=False)
     (path,) = isolated_cache.glob("fragile-*.pt")
     data = path.read_bytes()
@@ -353,7 +345,7 @@ def test_a_corrupt_file_is_detected_and_rebuilt(isolated_cache, damage):
 
 
 def test_checksum_and_key_mismatches_are_rebuilt(isolated_cache):
-    build, calls = _counting(lambda: {"w": torch.zeros(4)})
+    build, calls = counting(lambda: {"w": torch.zeros(4)})
     load_or_build("checked", {}, build, verbose=False)
     (path,) = isolated_cache.glob("checked-*.pt")
     blob = torch.load(path, weights_only=True)
@@ -375,7 +367,7 @@ def test_a_new_cache_format_gives_new_keys_and_an_earlier_formats_file_is_rebuil
     with monkeypatch.context() as patch:
         patch.setattr(cache_module, "FORMAT", cache_module.FORMAT - 1)
         assert artifact_key("formatted", {"n": 1}, (_producer_a,)) != key
-    build, calls = _counting(lambda: {"w": torch.zeros(2)})
+    build, calls = counting(lambda: {"w": torch.zeros(2)})
     load_or_build("formatted", {}, build, verbose=False)
     (path,) = isolated_cache.glob("formatted-*.pt")
     blob = torch.load(path, weights_only=True)
@@ -400,7 +392,7 @@ class _Exploit:
 
 
 def test_an_arbitrary_pickle_is_rejected_not_executed(isolated_cache):
-    build, calls = _counting(lambda: {"safe": torch.arange(3)})
+    build, calls = counting(lambda: {"safe": torch.arange(3)})
     load_or_build("guarded", {}, build, verbose=False)
     (path,) = isolated_cache.glob("guarded-*.pt")
     blob = torch.load(path, weights_only=True)

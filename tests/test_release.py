@@ -3,7 +3,6 @@ scripts/release.py, which prepares, registers and checks a release, on a copy of
 import ast
 import datetime
 import hashlib
-import importlib.util
 import json
 import re
 import shutil
@@ -16,6 +15,8 @@ import pytest
 import yaml
 
 import hoi_tutorial
+
+from helpers import load_script
 
 tomllib = pytest.importorskip("tomllib")  # Python 3.11+
 
@@ -149,14 +150,7 @@ def test_the_books_footer_names_the_licences_year():
 # scripts/release.py, on a copy of what it reads and writes (--root)
 
 
-def _load_release():
-    spec = importlib.util.spec_from_file_location("release", ROOT / "scripts" / "release.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-release = _load_release()
+release = load_script("release")
 NOTEBOOK = Path("notebooks") / "01_toy_world.ipynb"
 COPIED = ("pyproject.toml", "CITATION.cff", "CHANGELOG.md", "_config.yml", INIT, PACK_MODULE,
           Path("src") / "hoi_tutorial" / "viz" / "render.py", NOTEBOOK)
