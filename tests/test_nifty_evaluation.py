@@ -269,6 +269,22 @@ def _scores(d2o, skel, iou, pose=None):
                                 start_distance=unused, final_distance=unused)
 
 
+def test_ablation_row_puts_the_pose_only_share_in_place_of_the_all_zero_column():
+    from hoi_tutorial.nifty import ablation_tables
+    results = _scores([0.01, 0.5, 0.0, 0.3], [3.0, 4.0, 5.0, 6.0], [0.2] * 4, pose=[0.4, 1.0, 1.01, 3.0])
+    row = ablation_tables.ablation_row(results, 1.0)
+    assert "% Skel. Dist. ≤ 25cm ↑" not in row
+    assert row["% Pose Dist. ≤ 100cm ↑"] == 50.0 and row["% D2O ≤ 2cm ↑"] == 50.0
+    assert row["Skel. Dist. ↓"] == pytest.approx(4.5)
+    columns = ablation_tables.ablation_columns(1.0)
+    at = columns.index("% Skel. Dist. ≤ 25cm ↑")
+    assert columns[at + 1] == "% Pose Dist. ≤ 100cm ↑" and set(row) <= set(columns)
+    assert ablation_tables.ablation_counts(results, 1.0) == {"D2O ≤ 2cm": "2 / 4", "Pose Dist. ≤ 100cm": "2 / 4",
+                                                             "Pen. ≤ 2cm": "2 / 2"}
+    with pytest.raises(ValueError, match="columns"):
+        ablation_tables.ablation_columns(1.0, columns=("Skel. Dist. ↓",))
+
+
 def test_paired_comparison_known_answers_and_verdicts():
     # Ours reaches 4 of 6 scenes and theirs 1; ours is 2 m nearer the anchors in every scene.
     ours = _scores([0.0, 0.01, 0.015, 0.4, 0.005, 0.03], [1.0, 2.0, 3.0, 4.0, 5.0, 6.0], [0.5] * 6)
