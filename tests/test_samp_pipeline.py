@@ -30,7 +30,7 @@ def test_room_tasks_start_away_from_the_goal_facing_it(tasks):
 
 
 def test_goals_follow_the_path_and_end_with_the_action(tasks):
-    goals, waypoints = pl.goals_along_path(tasks[0])
+    goals, waypoints = pl.goals_along_path(tasks[0], switch="waypoints")
     assert len(goals) == len(waypoints)  # the waypoints after the start, then the sitting goal
     for (position, direction, action, radius), point in zip(goals[:-1], waypoints[1:]):
         np.testing.assert_allclose(position[:2], point)
@@ -118,8 +118,7 @@ def test_room_run_end_to_end_with_and_without_planning(tasks):
             if not planning:
                 assert frame == 0  # the seat is the only goal from the start
                 continue
-            last = len(result.waypoints[b]) - 1
-            under = (result.rollout.goal_index[b] == last).numpy()
+            under = (result.rollout.goal_index[b] == result.action_goal[b]).numpy()
             assert (frame is None) == (not under.any())
             if frame is not None:
                 assert under[frame] and not under[:frame].any()
@@ -137,7 +136,8 @@ def test_a_cached_room_run_is_the_run_itself_and_a_moved_object_is_another_room(
         state_hidden=(16, 8, 8), interaction_hidden=(8, 8), interaction_out=4, gating_hidden=(8, 4),
         prediction_hidden=16, n_experts=2, latent=2)).eval()
     arguments = dict(seconds=0.4, seed=0, planning=True, latent_scale=1.0, settle=1.5, reach_radius=0.3,
-                     switch="waypoints", action_radius=1.5, waypoint_radius=pl.WAYPOINT_RADIUS)
+                     switch="demo", action_radius=1.5, waypoint_radius=pl.WAYPOINT_RADIUS,
+                     lookahead=pl.DEMO_LOOKAHEAD)
 
     def assert_same(a, b):
         for name in ("execution_time", "position_error", "rotation_error", "reached", "penetration"):
@@ -232,3 +232,66 @@ def test_the_path_switch_hands_over_to_the_action_once_the_rest_of_the_path_is_s
     assert all(g[3] == 0.5 for g in tight[:-2]) and tight[-2][3] == 1.5
     with pytest.raises(ValueError, match="switch"):
         pl.goals_along_path(task, switch="seat")
+
+
+def test_the_demo_path_runs_to_the_goal_itself_without_corners_near_it(tasks):
+    for task in tasks:
+        points = pl.demo_waypoints(task)
+        np.testing.assert_allclose(points[0], task.start_root[:2])
+        np.testing.assert_allclose(points[-1], task.goal_position[:2])  # the seat itself, not a spot in front
+        corners = points[1:-1]
+        assert all(np.linalg.norm(c - task.goal_position[:2]) > pl.DEMO_CORNER_PRUNE for c in corners)
+        assert task.room.is_free(corners).all() if len(corners) else True
+        goals, waypoints = pl.goals_along_path(task)  # the demo is the default
+        assert len(goals) == 2 and goals[-1][2] == "sit" and waypoints is not None
+        assert goals[0][2] == ("walk" if len(corners) else "sit")
+
+
+def _straight_corridor_goals(lookahead=1.0):
+    # a path (0, 0) -> (4, 0) -> (4, 3): one corner at (4, 0); the sitting goal at (4, 3)
+    points = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 3.0]])
+    walk = (np.r_[lookahead, 0.0, 0.0], np.r_[1.0, 0.0, 0.0], "walk", 0.0)
+    sit = (np.r_[4.0, 3.0, 0.0], np.r_[0.0, -1.0, 0.0], "sit", 0.0)
+    return pl.SteeredGoals.from_paths([[walk, sit]], [points], lookahead=lookahead), points
+
+
+def test_steered_goals_move_ahead_along_the_path_and_hand_over_at_the_last_corner():
+    goals, _ = _straight_corridor_goals(lookahead=1.0)
+    index = torch.zeros(1, dtype=torch.int64)
+    # Beside the first leg at x = 1 (0.2 m off it): the walk goal is 1 m further along the path, facing along it.
+    index = goals.advance(index, torch.tensor([[1.0, 0.2, 0.0]]))
+    assert int(index[0]) == 0
+    np.testing.assert_allclose(goals.positions[0, 0, :2].numpy(), [2.0, 0.0], atol=1e-6)
+    np.testing.assert_allclose(goals.directions[0, 0, :2].numpy(), [1.0, 0.0], atol=1e-6)
+    local = goals.seen_from(index, torch.tensor([[1.0, 0.2, 0.0]]))  # the bookkeeping sees the moved goal
+    assert local is not None
+    # At x = 3.3, the goal wraps round the corner: 0.7 m short of it plus 1 m, i.e. 0.3 m up the second leg.
+    goals.advance(index, torch.tensor([[2.2, 0.0, 0.0]]))
+    index = goals.advance(index, torch.tensor([[3.3, 0.0, 0.0]]))
+    assert int(index[0]) == 0
+    np.testing.assert_allclose(goals.positions[0, 0, :2].numpy(), [4.0, 0.3], atol=1e-6)
+    np.testing.assert_allclose(goals.directions[0, 0, :2].numpy(), [0.0, 1.0], atol=1e-6)
+    # Within 0.5 m of the last corner: the sitting goal from now on.
+    index = goals.advance(index, torch.tensor([[3.6, 0.0, 0.0]]))
+    assert int(index[0]) == 1
+    assert int(goals.advance(index, torch.tensor([[0.0, 0.0, 0.0]]))[0]) == 1  # and never back
+
+
+def test_steered_goals_never_move_back_nor_jump_to_a_leg_that_passes_near():
+    goals, _ = _straight_corridor_goals(lookahead=1.0)
+    index = torch.zeros(1, dtype=torch.int64)
+    goals.advance(index, torch.tensor([[1.2, 0.0, 0.0]]))
+    goals.advance(index, torch.tensor([[2.0, 0.0, 0.0]]))
+    goals.advance(index, torch.tensor([[1.0, 0.0, 0.0]]))  # walked back: the progress stays
+    np.testing.assert_allclose(goals.positions[0, 0, :2].numpy(), [3.0, 0.0], atol=1e-6)
+    # Beside the second leg's far end, 3 m ahead along the path: too far to be this frame's progress.
+    goals.advance(index, torch.tensor([[4.4, 2.9, 0.0]]))
+    np.testing.assert_allclose(goals.positions[0, 0, :2].numpy(), [3.0, 0.0], atol=1e-6)
+    # A path with no corner: the sitting goal at once.
+    sit = (np.r_[2.0, 0.0, 0.0], np.r_[1.0, 0.0, 0.0], "sit", 0.0)
+    direct = pl.SteeredGoals.from_paths([[sit, sit]], [np.array([[0.0, 0.0], [2.0, 0.0]])])
+    assert int(direct.advance(torch.zeros(1, dtype=torch.int64), torch.tensor([[0.0, 0.0, 0.0]]))[0]) == 1
+    with pytest.raises(ValueError, match="lookahead"):
+        pl.SteeredGoals.from_paths([[sit, sit]], [np.array([[0.0, 0.0], [2.0, 0.0]])], lookahead=0.0)
+    with pytest.raises(ValueError, match="waypoints"):
+        pl.SteeredGoals.from_paths([[sit, sit]], [])

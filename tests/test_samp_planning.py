@@ -305,3 +305,19 @@ def test_simplify_waypoints_merges_short_legs_and_slight_turns_where_the_walk_is
     np.testing.assert_allclose(out, [[0.5, 2.5], [6.4, 2.5 + 0.2 * 5.9 / 5.7], [6.4, 9.5]], atol=1e-9)
     with pytest.raises(ValueError, match="waypoints"):
         planning.simplify_waypoints(r, wiggly[:1])
+
+
+def test_nearest_walkable_point_moves_a_seat_goal_onto_the_reachable_floor():
+    from hoi_tutorial.samp.planning import nearest_walkable_point, plan_path
+    room = make_room(3, n_clutter=8)
+    goal = np.asarray(room.target.sit_goals[0][0], dtype=np.float64)[:2]
+    start = room.start_positions(1, seed=np.random.default_rng(0))[0]
+    point = nearest_walkable_point(room, goal, start)
+    assert np.linalg.norm(point - goal) <= 1.0
+    assert room.obstacle_distance(point) >= room.body_radius - room.cell_size  # a free cell's centre
+    plan_path(room, start, point)  # reachable: plans without error
+    # No walkable cell within a few centimetres of a seat goal (it lies inside the inflated footprint).
+    with pytest.raises(ValueError, match="no walkable point"):
+        nearest_walkable_point(room, goal, start, max_distance=0.01)
+    with pytest.raises(ValueError, match="max_distance"):
+        nearest_walkable_point(room, goal, start, max_distance=-1.0)

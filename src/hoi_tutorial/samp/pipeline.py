@@ -4,19 +4,20 @@ The algorithm box, as :func:`run_room_tasks` runs it:
 
 1. **Goal**: a sitting goal on the room's target object (the object's own, or one GoalNet proposed,
    see ``goalnet.sample_goals``).
-2. **Path planning** (§3.3): A* from the character's start to the spot in front of the goal
-   (``Room.standing_point``), on the room's grid inflated by the body radius; the waypoints are
-   where the path turns (``planning.plan_path``).
+2. **Path planning** (§3.3): A* on the room's grid inflated by the body radius (``planning.plan_path``).
 3. **Sub-tasks**: "each sub-task requires the character to walk to the next waypoint. The final
-   sub-task requires the character to perform the desired action at the final waypoint." The
-   waypoints become walk goals passed in turn within ``WAYPOINT_RADIUS`` (1 m, ours); once the character is within
-   ``action_radius`` of the last one, the standing spot, the goal becomes the sitting goal
-   (``switch="waypoints"``, the paper's wording). ``switch="path"`` is the alternative chapter 14
-   measures: the waypoints simplified as a navigation mesh's corners would be
-   (``planning.simplify_waypoints``), and the sitting goal taking over as soon as the rest of the path
-   to the standing spot is shorter than ``action_radius`` and the straight walk there is free
-   (:class:`PathGoals`), whatever waypoints are still pending (the training clips walk up to a seat
-   under its goal from anywhere 2-4.5 m around it, ``motion_data.APPROACH_DISTANCE``).
+   sub-task requires the character to perform the desired action at the final waypoint." By default
+   (``switch="demo"``) as SAMP's public demo runs it (``SAMP_Demo.cs``, ``SitLieDown``, with
+   ``PathPlanningUtility.cs``): the path is planned to the sitting goal itself (:func:`demo_waypoints`: to the
+   walkable point nearest it, corners within 0.5 m of it dropped); until the path's last corner is reached the
+   character is *steered* along it with the walk action, by a walk goal that moves ahead on the path every frame
+   and never asks it to stop (:class:`SteeredGoals`); from the last corner on, the goal is the sitting goal.
+   Two earlier rules of the book stay for comparison (chapter 14), both planned to the standing spot in front of
+   the seat (``Room.standing_point``): ``switch="waypoints"``, the waypoints as walk goals passed in turn within
+   ``WAYPOINT_RADIUS`` (1 m, ours) and the sitting goal once the character is within ``action_radius`` of the
+   spot; and ``switch="path"``, the waypoints simplified as a navigation mesh's corners would be
+   (``planning.simplify_waypoints``) and the sitting goal as soon as the rest of the path to the spot is shorter
+   than ``action_radius`` and the straight walk there is free (:class:`PathGoals`).
 4. **MotionNet** steps the character (``runtime.rollout``) with the target's voxels; the NSM-like model
    of Table 5 senses every object of the room instead (:func:`room_voxel_cells`, ``samp.sensor``).
 
@@ -42,15 +43,28 @@ from ..world.scenes import make_room, room_from_layout, room_layout
 from .core import GoalNetCVAE, MotionModel
 from .evaluation import MeasuredRuns, measure_goal_runs, voxel_cells
 from .goalnet import sample_goals
-from .planning import check_room_point, plan_path, reaches, simplify_waypoints, straight_walk_is_free
+from .planning import (check_room_point, nearest_walkable_point, plan_path, reaches, simplify_waypoints,
+                       straight_walk_is_free)
 from ..infra import load_or_build
 from .runtime import GoalSequence, Rollout, content_digest, model_digest, object_digest, rollout, standing_state
 
-__all__ = ["RoomTask", "ROOM_TARGETS", "cluttered_rooms", "room_tasks", "SWITCHES", "WAYPOINT_RADIUS", "goals_along_path", "PathGoals", "room_voxel_cells", "RoomRunResults",
+__all__ = ["RoomTask", "ROOM_TARGETS", "cluttered_rooms", "room_tasks", "SWITCHES", "WAYPOINT_RADIUS", "DEMO_LOOKAHEAD", "demo_waypoints", "goals_along_path", "PathGoals", "SteeredGoals", "room_voxel_cells", "RoomRunResults",
            "penetrating_frames", "run_room_tasks"]
 
-# How the sitting goal takes over from the walk goals (see the module docstring).
-SWITCHES = ("waypoints", "path")
+# How the sitting goal takes over from the walk (see the module docstring): SAMP's demo (the default), or the book's
+# two earlier rules, kept for comparison.
+SWITCHES = ("demo", "waypoints", "path")
+# SAMP's demo (Assets/Demo/SAMP_Demo.cs, Assets/Scripts/Utility/PathPlanningUtility.cs), what we take from it:
+# the goal on the seat moves onto the walkable area within 1 m (NavMesh.SamplePosition(goal, 1.0f));
+DEMO_SAMPLE_RADIUS = 1.0
+# corners within 0.5 m of the goal are dropped (PreProcessWayPoints);
+DEMO_CORNER_PRUNE = 0.5
+# a corner counts as reached within 0.5 m (GetNextTurn; GetNextMove checks 0.3 m first, the same frame);
+DEMO_CORNER_REACHED = 0.5
+# and the walk is steered by a goal trajectory that reaches about 2 m ahead of the root (ApplyDynamicGoal: 2 s of
+# goal samples at unit speed). Our network takes one goal, not a goal trajectory: the walk goal is the point of the
+# path this far ahead of the root's projection on it, with the path's direction there (ours).
+DEMO_LOOKAHEAD = 2.0
 # Ours (SAMP does not say how near a waypoint counts as reached): a walk goal is passed within 1 m. A walk clip ends
 # standing on its last waypoint, so a walk goal ahead also reads "stop there"; with 0.5 m, runs that stopped a little
 # short of a waypoint stood there until the time limit (chapter 14 compares the two).
@@ -181,10 +195,32 @@ def _room_tasks(rooms, seed, min_distance, goalnet, n_proposals, facing_spread, 
     return tasks
 
 
+def demo_waypoints(task: RoomTask, prune: float = DEMO_CORNER_PRUNE,
+                   sample_radius: float = DEMO_SAMPLE_RADIUS) -> np.ndarray:
+    """SAMP's demo path to the sitting goal itself (``PathPlanningUtility.ComputePath``): ``(M, 2)`` xy metres,
+    the start first, the path's corners, the goal position on the seat last.
+
+    The goal lies on the seat, inside the inflated footprint: the path is planned to the walkable point nearest it
+    (within ``sample_radius``, :func:`~hoi_tutorial.samp.planning.nearest_walkable_point`), then the goal replaces
+    that end point; corners within ``prune`` metres of the goal are dropped (``PreProcessWayPoints``).
+    """
+    start = check_room_point(task.room, np.asarray(task.start_root, dtype=np.float64)[:2], "start")
+    goal = np.asarray(task.goal_position, dtype=np.float64)[:2]
+    end = nearest_walkable_point(task.room, goal, start, max_distance=sample_radius)
+    corners = plan_path(task.room, start, end).waypoints[1:-1]
+    corners = [c for c in corners if np.linalg.norm(c - goal) > float(prune)]
+    return np.stack([start, *corners, goal])
+
+
 def goals_along_path(task: RoomTask, action: str = "sit", planning: bool = True,
                      waypoint_radius: float = WAYPOINT_RADIUS,
-                     action_radius: float = 1.5, switch: str = "waypoints") -> tuple[list, Optional[np.ndarray]]:
+                     action_radius: float = 1.5, switch: str = "demo",
+                     lookahead: float = DEMO_LOOKAHEAD) -> tuple[list, Optional[np.ndarray]]:
     """The goal list of one run (``runtime.GoalSequence.from_lists`` rows) and its waypoints.
+
+    With ``switch="demo"`` (SAMP's demo, the default): two goals, the walk goal that :class:`SteeredGoals`
+    moves along the path (here where it starts, ``lookahead`` metres along it) and the sitting goal; the
+    waypoints are :func:`demo_waypoints`. A path with no corner is all last leg: both goals are the sitting goal.
 
     With ``switch="path"`` the waypoints are simplified (``planning.simplify_waypoints``, no leg shorter
     than ``waypoint_radius`` where the walk allows it) and every walk goal, the standing spot included, is
@@ -202,6 +238,12 @@ def goals_along_path(task: RoomTask, action: str = "sit", planning: bool = True,
     final = (task.goal_position, task.goal_direction, action, 0.0)
     if not planning:
         return [final], None
+    if switch == "demo":
+        points = demo_waypoints(task)
+        if len(points) == 2:
+            return [final, final], points
+        position, direction = _along(points, float(lookahead))
+        return [(np.r_[position, 0.0], np.r_[direction, 0.0], "walk", 0.0), final], points
     spot = task.room.standing_point(task.goal_position, task.goal_direction)
     points = plan_path(task.room, task.start_root[:2], spot).waypoints
     if switch == "path":
@@ -272,6 +314,98 @@ class PathGoals(GoalSequence):
         return index
 
 
+def _along(points: np.ndarray, s: float) -> tuple[np.ndarray, np.ndarray]:
+    """The point ``s`` metres along the polyline ``points (M, 2)`` (clamped to its ends) and the unit direction of
+    its leg there."""
+    legs = np.diff(points, axis=0)
+    lengths = np.linalg.norm(legs, axis=1)
+    ends = np.cumsum(lengths)
+    s = min(max(float(s), 0.0), float(ends[-1]))
+    k = min(int(np.searchsorted(ends, s)), len(legs) - 1)
+    before = ends[k] - lengths[k]
+    unit = legs[k] / max(lengths[k], 1e-9)
+    return points[k] + unit * (s - before), unit
+
+
+@dataclass
+class SteeredGoals(GoalSequence):
+    """SAMP's demo at run time (``SitLieDown`` with path planning): the character is steered along its path with
+    the walk action until it reaches the path's last corner, then given the sitting goal (``ApplyStaticGoal``).
+
+    Goal 0 of each character is the walk goal: every frame it moves to the point of the path ``lookahead`` metres
+    ahead of the root's projection on the path (a moving goal, never a stop), facing along the path. Goal 1 is the
+    sitting goal. The hand-over comes when the projection is within ``reach`` metres of the last corner (or past
+    it); a path with no corner hands over at once. The projection only moves forward, and never past the walk goal
+    by more than half a metre (a later leg that passes near the root is not jumped to). One rollout per instance:
+    the progress is its state.
+
+    Attributes (beyond ``GoalSequence``'s):
+        waypoints: one ``(M, 2)`` array per character (:func:`demo_waypoints`).
+        lookahead, reach: metres.
+    """
+
+    waypoints: list = field(default_factory=list, repr=False)
+    lookahead: float = DEMO_LOOKAHEAD
+    reach: float = DEMO_CORNER_REACHED
+
+    def __post_init__(self):
+        super().__post_init__()
+        B = self.positions.shape[0]
+        if len(self.waypoints) != B:
+            raise ValueError(f"waypoints: expected one path per character ({B}), got {len(self.waypoints)}")
+        if self.positions.shape[1] != 2:
+            raise ValueError(f"positions: expected two goals per character (walk, action), got {self.positions.shape[1]}")
+        for name in ("lookahead", "reach"):
+            value = float(getattr(self, name))
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"{name}: expected a positive number of metres, got {value!r}")
+        self.waypoints = [np.asarray(w, dtype=np.float64).reshape(-1, 2) for w in self.waypoints]
+        self._ends = [np.cumsum(np.linalg.norm(np.diff(w, axis=0), axis=1)) for w in self.waypoints]
+        self._progress = np.zeros(B)  # metres along each path, of the root's projection
+
+    @classmethod
+    def from_paths(cls, goals: list, waypoints: list, lookahead: float = DEMO_LOOKAHEAD,
+                   reach: float = DEMO_CORNER_REACHED) -> "SteeredGoals":
+        """From :func:`goals_along_path`'s goals (``switch="demo"``) and waypoints, one entry per character."""
+        base = GoalSequence.from_lists(goals)
+        return cls(base.positions, base.directions, base.actions, base.radii, base.counts, list(waypoints),
+                   float(lookahead), float(reach))
+
+    def _project(self, b: int, xy: np.ndarray) -> float:
+        """Metres along path ``b`` of the point nearest ``xy``, no less than the last and at most the look-ahead
+        plus half a metre more."""
+        points, ends = self.waypoints[b], self._ends[b]
+        best, best_s = math.inf, self._progress[b]
+        for k in range(len(points) - 1):
+            leg = points[k + 1] - points[k]
+            length2 = max(float(leg @ leg), 1e-12)
+            u = min(max(float((xy - points[k]) @ leg) / length2, 0.0), 1.0)
+            s = ends[k] - math.sqrt(length2) * (1.0 - u)
+            if self._progress[b] <= s <= self._progress[b] + self.lookahead + 0.5:
+                gap = float(np.linalg.norm(points[k] + u * leg - xy))
+                if gap < best:
+                    best, best_s = gap, s
+        return best_s
+
+    def advance(self, index: torch.Tensor, roots: torch.Tensor) -> torch.Tensor:
+        index = index.clone()
+        for b in torch.nonzero(index == 0).flatten().tolist():
+            points, ends = self.waypoints[b], self._ends[b]
+            if len(points) <= 2:  # no corner: the sitting goal from the start
+                index[b] = 1
+                continue
+            self._progress[b] = self._project(b, roots[b, :2].double().numpy())
+            if self._progress[b] >= ends[-2] - self.reach:  # the last corner reached: the action's goal
+                index[b] = 1
+                continue
+            position, direction = _along(points, self._progress[b] + self.lookahead)
+            self.positions[b, 0, :2] = torch.as_tensor(position, dtype=self.positions.dtype)
+            self.directions[b, 0, :2] = torch.as_tensor(direction, dtype=self.directions.dtype)
+            self._xy[b, 0] = complex(*position)
+            self._forward[b, 0] = complex(*direction)
+        return index
+
+
 def penetrating_frames(room, joints: np.ndarray, tolerance: float = 0.02) -> np.ndarray:
     """``(T,)`` bool: frames where a joint of ``joints (T, 22, 3)`` is more than ``tolerance`` metres
     inside a wall or an object other than the room's target."""
@@ -321,6 +455,7 @@ class RoomRunResults(MeasuredRuns):
         penetration: ``(n_tasks,)`` share of each run's frames with a penetration (until it sat,
             or the whole run).
         rollout: the motion; waypoints: each run's A* waypoints (None without planning).
+        action_goal: per run, the index of the action's goal among its goals (0 without planning).
     """
 
     execution_time: np.ndarray
@@ -331,17 +466,14 @@ class RoomRunResults(MeasuredRuns):
     rollout: Rollout = field(repr=False)
     waypoints: list = field(repr=False, default_factory=list)
     reach_radius: float = 0.3
+    action_goal: list = field(repr=False, default_factory=list)
 
     def handover_frames(self) -> list:
         """Per run, the first frame under the action's goal (the seat), after the walk goals: 0 without
         planning, None where the character never passed its walk goals."""
         frames = []
-        for b, waypoints in enumerate(self.waypoints):
-            if waypoints is None:
-                frames.append(0)
-                continue
-            # one walk goal per waypoint after the start, then the action
-            under = torch.nonzero(self.rollout.goal_index[b] == len(waypoints) - 1)
+        for b, action_goal in enumerate(self.action_goal):
+            under = torch.nonzero(self.rollout.goal_index[b] == action_goal)
             frames.append(int(under[0, 0]) if len(under) else None)
         return frames
 
@@ -353,22 +485,25 @@ class RoomRunResults(MeasuredRuns):
 
 def run_room_tasks(model: MotionModel, tasks: Sequence[RoomTask], seconds: float = 30.0, seed: int = 0,
                    planning: bool = True, latent_scale: float = 1.0, settle: float = 1.5,
-                   reach_radius: float = 0.3, switch: str = "waypoints", action_radius: float = 1.5,
-                   waypoint_radius: float = WAYPOINT_RADIUS) -> RoomRunResults:
+                   reach_radius: float = 0.3, switch: str = "demo", action_radius: float = 1.5,
+                   waypoint_radius: float = WAYPOINT_RADIUS, lookahead: float = DEMO_LOOKAHEAD) -> RoomRunResults:
     """Run the tasks as one batch, with or without path planning, and measure them (module docstring);
     once (then from the cache: the plans, the motion and the measures, keyed by the model, every room's
     objects and the tasks, bit for bit, and the arguments).
 
-    ``switch`` (with planning): ``"path"``, the sitting goal takes over by the rest of the path
-    (:class:`PathGoals`), or ``"waypoints"``, after every waypoint (:func:`goals_along_path`), within
-    ``action_radius`` metres; walk waypoints before it are passed within ``waypoint_radius`` metres.
+    ``switch`` (with planning): ``"demo"`` (SAMP's demo: steered along the path to the goal itself, the
+    sitting goal from its last corner on, :class:`SteeredGoals` with ``lookahead``), ``"path"``, the sitting
+    goal takes over by the rest of the path (:class:`PathGoals`), or ``"waypoints"``, after every waypoint
+    (:func:`goals_along_path`), within ``action_radius`` metres; walk waypoints before it are passed within
+    ``waypoint_radius`` metres.
     """
     if not tasks:
         raise ValueError("tasks: expected at least one RoomTask")
     check_choice(switch, SWITCHES, "switch")
     args = {"seconds": float(seconds), "seed": int(seed), "planning": bool(planning), "latent_scale": float(latent_scale),
             "settle": float(settle), "reach_radius": float(reach_radius), "switch": switch,
-            "action_radius": float(action_radius), "waypoint_radius": float(waypoint_radius)}
+            "action_radius": float(action_radius), "waypoint_radius": float(waypoint_radius),
+            "lookahead": float(lookahead)}
     key = {"model": model_digest(model), "device": str(model.x_mean.device), "tasks": [_task_digest(t) for t in tasks],
            **args}
 
@@ -377,12 +512,12 @@ def run_room_tasks(model: MotionModel, tasks: Sequence[RoomTask], seconds: float
         return {"execution_time": r.execution_time, "position_error": r.position_error,
                 "rotation_error": r.rotation_error, "reached": r.reached, "penetration": r.penetration,
                 "states": r.rollout.states, "roots": r.rollout.roots, "goal_index": r.rollout.goal_index,
-                "actions": r.rollout.actions, "waypoints": r.waypoints}
+                "actions": r.rollout.actions, "waypoints": r.waypoints, "action_goal": r.action_goal}
 
     out = load_or_build("samp_room_runs", key, build)
     return RoomRunResults(out["execution_time"], out["position_error"], out["rotation_error"], out["reached"],
                           out["penetration"], Rollout(out["states"], out["roots"], out["goal_index"], out["actions"]),
-                          list(out["waypoints"]), float(reach_radius))
+                          list(out["waypoints"]), float(reach_radius), list(out["action_goal"]))
 
 
 def _room_digest(room) -> str:
@@ -399,12 +534,15 @@ def _task_digest(task: RoomTask) -> str:
 
 
 def _run_room_tasks(model, tasks, seconds, seed, planning, latent_scale, settle, reach_radius, switch, action_radius,
-                    waypoint_radius) -> RoomRunResults:
+                    waypoint_radius, lookahead) -> RoomRunResults:
     fps = 30.0
     n_frames = int(round(seconds * fps))
     plans = [goals_along_path(t, planning=planning, switch=switch, action_radius=action_radius,
-                              waypoint_radius=waypoint_radius) for t in tasks]
-    if planning and switch == "path":
+                              waypoint_radius=waypoint_radius, lookahead=lookahead) for t in tasks]
+    action_goal = [len(g) - 1 for g, _ in plans]
+    if planning and switch == "demo":
+        goals = SteeredGoals.from_paths([g for g, _ in plans], [w for _, w in plans], lookahead)
+    elif planning and switch == "path":
         goals = PathGoals.from_paths([g for g, _ in plans], [w for _, w in plans], [t.room for t in tasks],
                                      action_radius)
     else:
@@ -423,4 +561,5 @@ def _run_room_tasks(model, tasks, seconds, seed, planning, latent_scale, settle,
         # on a target that stands against a wall would otherwise count every seated frame
         end = int(round(times[b] * fps)) if math.isfinite(times[b]) else n_frames
         pen.append(penetrating_frames(task.room, joints[b, :max(end, 1)]).mean())
-    return RoomRunResults(times, pe, re, reached, np.asarray(pen), out, [w for _, w in plans], reach_radius)
+    return RoomRunResults(times, pe, re, reached, np.asarray(pen), out, [w for _, w in plans], reach_radius,
+                          action_goal)

@@ -50,6 +50,7 @@ __all__ = [
     "straight_walk_is_free",
     "simplify_waypoints",
     "reaches",
+    "nearest_walkable_point",
     "draw_path",
 ]
 
@@ -408,6 +409,41 @@ def reaches(room, starts, goal, *, radius: Optional[float] = None) -> np.ndarray
         cell = cell_of(xy, "start")
         out[i] = cell is not None and components[cell] == components[goal_cell]
     return out
+
+
+def nearest_walkable_point(room, xy, start, *, radius: Optional[float] = None, max_distance: float = 1.0) -> np.ndarray:
+    """The walkable point nearest ``xy`` that a walk from ``start`` can reach: (2,) xy metres, a cell centre.
+
+    SAMP's demo plans its path to the sitting goal itself, on the seat (``PathPlanningUtility.ComputePath``):
+    Unity's ``NavMesh.SamplePosition(goal, 1.0)`` moves the goal to the nearest point of the navigation mesh
+    within 1 m. Here the mesh is the free cells of ``room.inflated_occupancy(radius)``, and only the region
+    :func:`plan_path` can join to ``start`` counts (a pocket the walk cannot enter is no answer).
+
+    Args:
+        room: a :class:`~hoi_tutorial.world.scenes.Room`.
+        xy: (2,) the point to move onto the walkable area (e.g. a seat's goal), inside the room.
+        start: (2,) where the walk starts (walkable).
+        radius: body radius, metres (default ``room.body_radius``).
+        max_distance: metres; farther cells do not count (the demo's 1 m).
+    Raises:
+        ValueError: ``start`` not walkable, or no reachable walkable cell within ``max_distance`` of ``xy``.
+    """
+    radius = float(room.body_radius if radius is None else radius)
+    xy = check_room_point(room, xy, "xy")
+    start = check_room_point(room, start, "start")
+    if not (math.isfinite(float(max_distance)) and float(max_distance) > 0.0):
+        raise ValueError(f"max_distance: expected a positive number of metres, got {max_distance!r}")
+    blocked = np.asarray(room.inflated_occupancy(radius), dtype=bool)
+    components, _ = ndimage.label(~blocked)  # as reaches(): astar's regions are the 4-connected ones
+    region = components == components[_point_cell(room, blocked, start, "start", radius)]
+    cells = np.argwhere(region)
+    centres = room.grid_to_world(cells).reshape(-1, 2)
+    gaps = np.linalg.norm(centres - xy, axis=1)
+    best = int(np.argmin(gaps))
+    if gaps[best] > float(max_distance):
+        raise ValueError(f"xy [{xy[0]:g}, {xy[1]:g}] m: no walkable point reachable from start [{start[0]:g}, "
+                         f"{start[1]:g}] m within {float(max_distance):g} m (nearest {gaps[best]:.2f} m)")
+    return centres[best]
 
 
 def plan_path(room, start, goal, *, radius: Optional[float] = None, shortcut: bool = True) -> PlannedPath:
