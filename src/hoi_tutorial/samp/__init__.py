@@ -12,10 +12,12 @@ Modules, in the order of the paper:
   trajectory and a goal, shared by training (recomputed inputs) and the run-time loop.
 - ``runtime``: the decoder stepping characters from goal to goal (§3, §3.3).
 - ``evaluation``: goal tasks on unseen objects, execution time and precision (§5.2, Tables 2–3).
-- ``pipeline``: the whole pipeline in a cluttered room — A* sub-tasks, MotionNet, penetration (Fig. 2, §5.2).
+- ``pipeline``: the whole pipeline in a cluttered room, handed over as SAMP's demo does — the path to the goal,
+  MotionNet steered along it, then the action's goal (Fig. 2, §3.3, §5.2).
+- ``penetration``: how far the body's capsules reach into the room's furniture, the target apart (§5.2).
 - ``goalnet``: goal data from toy objects, GoalNet's training (Eq. 4), sampling and evaluation (§3.2, §4.3, §5.2).
-- ``planning``: A* path planning on a room's grid inflated by the body radius, and the waypoints
-  where the path changes direction that the character walks to in turn (§3.3, Appendix E).
+- ``planning``: A* path planning on a room's grid inflated by the body radius, the waypoints where the path
+  changes direction, and the walkable point nearest a goal on furniture (§3.3, Appendix E).
 - ``paper_numbers``: the paper's reported numbers, transcribed, for the tables set beside ours.
 
 ``motion_data`` applies the augmentation to the training clips when ``MotionDataConfig.augmented`` asks for
