@@ -31,7 +31,10 @@ decay → Adam at 1e-3 with a cosine learning-rate decay (the paper's rate is fo
 frames; ours sees ~24K frames for 10 epochs); 12 experts → 4, latent 64 → 32, β₁ 0.1 → 1.0, and
 narrower networks (``MOTIONNET_SCALES`` holds the paper's sizes under ``"paper"``). Two choices are
 ours, each measured in the MotionNet chapter: β₁, and what an own-prediction input holds
-(``own_inputs``).
+(``own_inputs``). A third is stated, not measured: the public code (``SAMP_Training``) takes an optimiser
+step at every frame of a window's roll-out, ``L`` per window, its windows not overlapping; we take one step
+per window on the loss summed over its ``L`` frames, windows overlapping by ``L/2``, so at equal epochs a
+preset makes ``L/2`` times fewer updates than the public code would (30 for ``"paper"``, 15 for ``"toy"``).
 """
 from __future__ import annotations
 
@@ -171,6 +174,8 @@ class MotionNetConfig:
             raise ValueError(f"kl_weight: expected a number >= 0, got {self.kl_weight!r}")
 
 
+# The presets. Every one takes one optimiser step per window of L frames (windows overlapping by L/2), where SAMP's
+# public code steps at every frame of a window: L/2 times fewer updates at equal epochs (the module docstring).
 MOTIONNET_SCALES = {
     "small": {"epochs": 30, "c1": 9.0, "c2": 18.0, "n_experts": 8, "prediction_hidden": 256},
     "paper": {"state_hidden": (512, 256, 256), "interaction_hidden": (256, 256), "interaction_out": 256,
