@@ -601,3 +601,25 @@ def test_onset_in_goal_frame_measures_in_front_aside_and_facing_against_the_goal
     assert all(math.isnan(v) for v in never.values())
     with pytest.raises(ValueError, match="actions"):
         ev.onset_in_goal_frame(roots, [walk, sit], goal, direction)
+
+
+def test_execution_time_is_paired_over_every_run_a_failure_counted_as_the_time_limit():
+    from hoi_tutorial.samp import evaluation as ev
+
+    def results(times):
+        times = np.asarray(times, dtype=float)
+        return ev.GoalRunResults(times, np.zeros_like(times), np.zeros_like(times), np.isfinite(times), rollout=None)
+
+    inf = math.inf
+    a = results([2.0, 3.0, inf, 4.0])
+    b = results([3.0, 3.5, 5.0, inf])
+    both = ev.paired_execution_time(a, b, time_limit=20.0)
+    assert both.n == 4 and both.estimate == pytest.approx(((2 - 3) + (3 - 3.5) + (20 - 5) + (4 - 20)) / 4)
+    acted = ev.paired_over_acted(a, b, "execution_time")
+    assert acted.n == 2  # the failures dropped: the other way of pairing
+    pooled = ev.paired_execution_time([a, a], [b, b], time_limit=20.0)
+    assert pooled.n == 8 and pooled.estimate == pytest.approx(both.estimate)
+    with pytest.raises(ValueError, match="time_limit"):
+        ev.paired_execution_time(a, b, time_limit=inf)
+    with pytest.raises(ValueError, match="same tasks"):
+        ev.paired_execution_time(a, results([1.0]), time_limit=20.0)

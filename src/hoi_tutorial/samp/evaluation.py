@@ -43,7 +43,8 @@ from .motion_data import OBJECT_CATEGORIES, clip_states, lie_facing, make_clip, 
 from ..infra import load_or_build
 from .runtime import GoalSequence, Rollout, content_digest, current_action, object_digest, rollout, standing_state
 
-__all__ = ["GoalTask", "goal_tasks", "precision_summary", "paired_over_acted", "GoalRunResults", "run_goal_tasks", "measure_goal_runs", "LOCAL_POSE_FEATURES", "FD_FEATURES",
+__all__ = ["GoalTask", "goal_tasks", "precision_summary", "paired_over_acted",
+    "paired_execution_time", "GoalRunResults", "run_goal_tasks", "measure_goal_runs", "LOCAL_POSE_FEATURES", "FD_FEATURES",
            "state_features", "action_fd", "direction_runs", "standing_runs", "action_frames", "repeated_goal_runs", "run_spread",
            "captured_states", "voxel_cells", "onset_windows", "onset_spread", "MeasuredRuns", "onset_in_goal_frame"]
 
@@ -133,15 +134,8 @@ def paired_over_acted(a, b, measure: str, **kwargs):
     ``a`` and ``b`` are :class:`GoalRunResults` (or room runs), or equally long sequences of them, one pair per set
     of tasks (the sit tasks and the lie tasks, say): the pairs are then pooled, every run paired with its own."""
     check_choice(measure, ("position_error", "rotation_error", "execution_time"), "measure")
-    pooled = isinstance(a, (list, tuple))
-    if pooled != isinstance(b, (list, tuple)) or (pooled and (len(a) != len(b) or not a)):
-        raise ValueError("a, b: expected two results, or two equally long sequences of them")
-    pairs = list(zip(a, b)) if pooled else [(a, b)]
     ours, theirs = [], []
-    for x, y in pairs:
-        if len(x.execution_time) != len(y.execution_time):
-            raise ValueError(f"a, b: expected runs of the same tasks, got {len(x.execution_time)} and "
-                             f"{len(y.execution_time)}")
+    for x, y in _run_pairs(a, b):
         both = np.isfinite(x.execution_time) & np.isfinite(y.execution_time)
         ours.append(np.asarray(getattr(x, measure))[both])
         theirs.append(np.asarray(getattr(y, measure))[both])
@@ -149,6 +143,35 @@ def paired_over_acted(a, b, measure: str, **kwargs):
     if len(ours) < 2:
         return None
     return intervals.paired_difference(ours, theirs, **kwargs)
+
+
+def paired_execution_time(a, b, time_limit: float, **kwargs):
+    """``a`` minus ``b`` in execution time (s), paired run by run over *every* run of the same tasks, a run that
+    never acted counted as ``time_limit`` seconds (its whole length): a failure weighs as the slowest run, where
+    :func:`paired_over_acted` leaves it out. ``a``, ``b`` and ``kwargs`` as there; None under two runs."""
+    if not (np.isfinite(time_limit) and time_limit > 0):
+        raise ValueError(f"time_limit: expected a positive number of seconds, got {time_limit!r}")
+    ours, theirs = [], []
+    for x, y in _run_pairs(a, b):
+        ours.append(np.where(np.isfinite(x.execution_time), x.execution_time, float(time_limit)))
+        theirs.append(np.where(np.isfinite(y.execution_time), y.execution_time, float(time_limit)))
+    ours, theirs = np.concatenate(ours), np.concatenate(theirs)
+    if len(ours) < 2:
+        return None
+    return intervals.paired_difference(ours, theirs, **kwargs)
+
+
+def _run_pairs(a, b) -> list:
+    """``[(a, b)]``, or the pairs of two equally long sequences of results, each pair of runs of the same tasks."""
+    pooled = isinstance(a, (list, tuple))
+    if pooled != isinstance(b, (list, tuple)) or (pooled and (len(a) != len(b) or not a)):
+        raise ValueError("a, b: expected two results, or two equally long sequences of them")
+    pairs = list(zip(a, b)) if pooled else [(a, b)]
+    for x, y in pairs:
+        if len(x.execution_time) != len(y.execution_time):
+            raise ValueError(f"a, b: expected runs of the same tasks, got {len(x.execution_time)} and "
+                             f"{len(y.execution_time)}")
+    return pairs
 
 
 class MeasuredRuns:
