@@ -90,8 +90,9 @@ smoothly than the recorded clips (381 against 299 cm/s²). So the toy preset kee
 
 Scaling (paper → toy): 8 PAE channels → 4 (``phase``); gating 3 × 128 → 2 × 64 hidden + output, main
 network 3 × 512 → 3 × 128; experts (not stated in CHOICE; DeepPhase 8) → 4; 70 % of 150 sequences for
-150 epochs (8 h) → ``clips`` toy clips for ``steps`` batches; 60 fps → 30 fps; the full 22-joint pose
-(no joint rotations, ours) stands for the paper's pose.
+150 epochs (8 h) → ``clips`` toy clips for ``steps`` batches; 60 fps → 30 fps; the toy body's 22 joints (their
+local rotations in 6D, with positions and velocities as an auxiliary output: step 4 above) stand for the paper's
+pose.
 """
 from . import features, kalman, measures, network, phase, runtime
 
