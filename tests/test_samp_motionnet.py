@@ -1,6 +1,7 @@
 """SAMP's MotionNet: data (goals, roots, voxels), the networks, Eq. 5, training and the run-time loop."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -623,3 +624,17 @@ def test_execution_time_is_paired_over_every_run_a_failure_counted_as_the_time_l
         ev.paired_execution_time(a, b, time_limit=inf)
     with pytest.raises(ValueError, match="same tasks"):
         ev.paired_execution_time(a, results([1.0]), time_limit=20.0)
+
+
+def test_the_captured_execution_time_starts_where_the_task_starts():
+    from hoi_tutorial.samp import evaluation as ev
+
+    tasks = ev.goal_tasks("sit", 2, seed=0)
+    times = ev.captured_execution_times(tasks)
+    assert times.shape == (2,) and np.all(np.isfinite(times)) and np.all(times > 1.0)
+    # a start farther from the seat takes longer: the same task moved back along the way to the goal by 2 m
+    far = [dataclasses.replace(t, start_root=np.r_[t.start_root[:2] + 2.0 * (t.start_root[:2] - t.goal_position[:2])
+                                                   / np.linalg.norm(t.start_root[:2] - t.goal_position[:2]),
+                                                   t.start_root[2]]) for t in tasks]
+    assert np.all(ev.captured_execution_times(far) > times)
+    np.testing.assert_array_equal(ev.captured_execution_times(tasks), times)  # deterministic for its seeds

@@ -44,7 +44,8 @@ from ..infra import load_or_build
 from .runtime import GoalSequence, Rollout, content_digest, current_action, object_digest, rollout, standing_state
 
 __all__ = ["GoalTask", "goal_tasks", "precision_summary", "paired_over_acted",
-    "paired_execution_time", "GoalRunResults", "run_goal_tasks", "measure_goal_runs", "LOCAL_POSE_FEATURES", "FD_FEATURES",
+    "paired_execution_time",
+    "captured_execution_times", "GoalRunResults", "run_goal_tasks", "measure_goal_runs", "LOCAL_POSE_FEATURES", "FD_FEATURES",
            "state_features", "action_fd", "direction_runs", "standing_runs", "action_frames", "repeated_goal_runs", "run_spread",
            "captured_states", "voxel_cells", "onset_windows", "onset_spread", "MeasuredRuns", "onset_in_goal_frame"]
 
@@ -378,6 +379,28 @@ def captured_states(action: str, obj: ToyObject, n: int = 10, first_seed: int = 
     key = {"action": action, "object": object_digest(obj), "n": n, "first_seed": int(first_seed)}
     return load_or_build("samp_captured_states", key,
                          lambda: [clip_states(make_clip(action, first_seed + k, obj=obj)[0])[0] for k in range(n)])
+
+
+def captured_execution_times(tasks: Sequence["GoalTask"], first_seed: int = 7000, fps: float = 30.0) -> np.ndarray:
+    """Table 2's ground truth on the methods' own tasks: for each task, a toy-mocap clip of its action on its object,
+    from its start position to its own goal on the object (``mocap.generate_clip`` with ``start_position`` and
+    ``goal_index``, arriving as the training clips do), and the seconds from the clip's first frame to its first
+    frame of the action; ``(len(tasks),)``, ``inf`` where the clip never performs it. Seeds ``first_seed + k``."""
+    from ..world import mocap
+    from ..world.features import samp_action_ids
+    from .motion_data import ARRIVAL
+
+    times = []
+    for k, task in enumerate(tasks):
+        check_choice(task.action, tuple(OBJECT_CATEGORIES), "task.action")
+        goals = task.obj.sit_goals if task.action == "sit" else task.obj.lie_goals
+        goal_index = int(np.argmin(np.linalg.norm(np.asarray(goals[0], dtype=np.float64) - task.goal_position, axis=1)))
+        motion = mocap.generate_clip(task.action, seed=int(first_seed) + k, obj=task.obj, goal_index=goal_index,
+                                     stand_up=False, start_position=np.asarray(task.start_root[:2], dtype=np.float64),
+                                     arrival=ARRIVAL)
+        acting = np.flatnonzero(samp_action_ids(motion.actions) == SAMP_ACTIONS.index(task.action))
+        times.append(acting[0] / float(fps) if len(acting) else math.inf)
+    return np.asarray(times, dtype=np.float64)
 
 
 # A goal run's objects recur (every model runs the same tasks): their cells are made once per process.
