@@ -577,7 +577,7 @@ def test_captured_states_are_the_toy_mocap_on_one_object():
         ev.captured_states("walk", obj)
     # the room runs read their numbers the same way as the goal runs
     room = RoomRunResults(np.array([1.0, math.inf]), np.array([40.0, math.inf]), np.array([5.0, math.inf]),
-                          np.array([False, False]), np.zeros(2), np.zeros(2), np.zeros(2), rollout=None)
+                          np.array([False, False]), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2), rollout=None)
     assert room.summary()["PE"] == 40.0 and room.summary()["execution_time"] == math.inf and room.acted.sum() == 1
 
 

@@ -113,7 +113,8 @@ def test_room_run_end_to_end_with_and_without_planning(tasks):
         result = pl.run_room_tasks(model, tasks, seconds=0.4, planning=planning)
         assert result.rollout.states.shape == (2, 13, SAMP_STATE_SIZE)
         assert result.penetration.shape == (2,) and 0.0 <= result.penetration_percent <= 100.0
-        for share in (result.penetration, result.target_penetration, result.joint_penetration):
+        for share in (result.penetration, result.target_penetration, result.walking_penetration,
+                      result.joint_penetration):
             assert share.shape == (2,) and ((0.0 <= share) & (share <= 1.0)).all()
         assert (result.waypoints[0] is None) == (not planning)
         for b, frame in enumerate(result.handover_frames()):
@@ -143,7 +144,7 @@ def test_a_cached_room_run_is_the_run_itself_and_a_moved_object_is_another_room(
 
     def assert_same(a, b):
         for name in ("execution_time", "position_error", "rotation_error", "reached", "penetration",
-                     "target_penetration", "joint_penetration"):
+                     "target_penetration", "walking_penetration", "joint_penetration"):
             np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
         for name in ("states", "roots", "goal_index", "actions"):
             assert torch.equal(getattr(a.rollout, name), getattr(b.rollout, name)), name

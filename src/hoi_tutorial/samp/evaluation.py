@@ -36,10 +36,11 @@ import torch
 from .. import intervals
 from .._validate import check_choice, check_shape
 from ..metrics import average_pairwise_distance, execution_time, frechet_distance, goal_precision
-from ..world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE
+from ..world import mocap
+from ..world.features import SAMP_ACTIONS, SAMP_STATE_LAYOUT, SAMP_STATE_SIZE, samp_action_ids
 from ..world.objects import ToyObject, make_object
 from .core import MotionModel
-from .motion_data import OBJECT_CATEGORIES, clip_states, lie_facing, make_clip, object_voxel_cells
+from .motion_data import ARRIVAL, OBJECT_CATEGORIES, clip_states, lie_facing, make_clip, object_voxel_cells
 from ..infra import load_or_build
 from .runtime import GoalSequence, Rollout, content_digest, current_action, object_digest, rollout, standing_state
 
@@ -386,10 +387,6 @@ def captured_execution_times(tasks: Sequence["GoalTask"], first_seed: int = 7000
     from its start position to its own goal on the object (``mocap.generate_clip`` with ``start_position`` and
     ``goal_index``, arriving as the training clips do), and the seconds from the clip's first frame to its first
     frame of the action; ``(len(tasks),)``, ``inf`` where the clip never performs it. Seeds ``first_seed + k``."""
-    from ..world import mocap
-    from ..world.features import samp_action_ids
-    from .motion_data import ARRIVAL
-
     times = []
     for k, task in enumerate(tasks):
         check_choice(task.action, tuple(OBJECT_CATEGORIES), "task.action")

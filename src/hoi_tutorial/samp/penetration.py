@@ -27,14 +27,16 @@ from .._validate import check_shape
 from ..world.body import capsule_segments
 from ..world.features import SAMP_STATE_LAYOUT
 from ..world.primitives import union_sdf
-from ..world.rotations import rotation_6d_to_matrix
+from ..world.rotations import rotation_6d_to_matrix, rotation_about_z
 from ..world.skeleton import NUM_JOINTS
 
-__all__ = ["CAPSULE_SAMPLES", "rollout_pose", "body_depths", "penetration_shares"]
+__all__ = ["CAPSULE_SAMPLES", "TOLERANCE", "rollout_pose", "body_depths", "penetration_shares"]
 
 # Points read along each capsule's segment (ours): the longest toy capsule, the thigh, about 0.45 m, is read every
 # 6-7 cm, less than the thinnest capsule's diameter.
 CAPSULE_SAMPLES = 8
+# How far into an object a frame must reach to count (as the joint-centre count of ``pipeline.penetrating_frames``).
+TOLERANCE = 0.02
 
 
 def rollout_pose(states: torch.Tensor, roots: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -52,12 +54,10 @@ def rollout_pose(states: torch.Tensor, roots: torch.Tensor) -> tuple[torch.Tenso
     local_p = states[..., SAMP_STATE_LAYOUT["joint_positions"]].reshape(*lead, NUM_JOINTS, 3).double()
     local_r = rotation_6d_to_matrix(states[..., SAMP_STATE_LAYOUT["joint_rotations"]].reshape(*lead, NUM_JOINTS, 6)
                                     .double())
-    h = roots[..., 2].double()
-    c, s, zero, one = torch.cos(h), torch.sin(h), torch.zeros_like(h), torch.ones_like(h)
-    yaw = torch.stack([torch.stack([c, -s, zero], -1), torch.stack([s, c, zero], -1),
-                       torch.stack([zero, zero, one], -1)], -2)                                 # R_z(h)
+    yaw = rotation_about_z(roots[..., 2].double())                                           # R_z(h)
     positions = (yaw[..., None, :, :] @ local_p[..., None])[..., 0]
-    positions = positions + torch.cat([roots[..., :2].double(), torch.zeros_like(h)[..., None]], -1)[..., None, :]
+    positions = positions + torch.cat([roots[..., :2].double(), torch.zeros_like(roots[..., :1]).double()],
+                                      -1)[..., None, :]
     return yaw[..., None, :, :] @ local_r, positions
 
 
@@ -96,7 +96,7 @@ def body_depths(room, global_rotations, joint_positions, betas=None) -> dict:
     return {"clutter": clutter, "target": target}
 
 
-def penetration_shares(room, global_rotations, joint_positions, betas=None, tolerance: float = 0.02) -> dict:
+def penetration_shares(room, global_rotations, joint_positions, betas=None, tolerance: float = TOLERANCE) -> dict:
     """The share of frames whose body reaches more than ``tolerance`` metres into the clutter (walls and non-target
     objects) and, apart, into the target: ``{"clutter": float, "target": float}`` in [0, 1]."""
     if not (np.isfinite(tolerance) and tolerance >= 0.0):

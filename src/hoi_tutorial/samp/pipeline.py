@@ -45,7 +45,7 @@ from ..world.scenes import make_room, room_from_layout, room_layout
 from .core import GoalNetCVAE, MotionModel
 from .evaluation import MeasuredRuns, measure_goal_runs, voxel_cells
 from .goalnet import sample_goals
-from .penetration import penetration_shares, rollout_pose
+from .penetration import TOLERANCE, body_depths, rollout_pose
 from .planning import (check_room_point, nearest_walkable_point, plan_path, reaches, simplify_waypoints,
                        straight_walk_is_free)
 from ..infra import load_or_build
@@ -458,6 +458,8 @@ class RoomRunResults(MeasuredRuns):
         penetration: ``(n_tasks,)`` share of each run's frames (the whole run) in which the body reaches more
             than 2 cm into a wall or a non-target object (``samp.penetration``).
         target_penetration: ``(n_tasks,)`` the same share for the target alone.
+        walking_penetration: ``(n_tasks,)`` the body's share (walls and non-target objects) over the frames up to
+            the sit (the whole run when it never sat): the penetration while the character walks.
         joint_penetration: ``(n_tasks,)`` the book's first measure: the share of frames up to the sit (the
             whole run when it never sat) with a joint centre more than 2 cm inside (:func:`penetrating_frames`).
         rollout: the motion; waypoints: each run's A* waypoints (None without planning).
@@ -470,6 +472,7 @@ class RoomRunResults(MeasuredRuns):
     reached: np.ndarray
     penetration: np.ndarray
     target_penetration: np.ndarray
+    walking_penetration: np.ndarray
     joint_penetration: np.ndarray
     rollout: Rollout = field(repr=False)
     waypoints: list = field(repr=False, default_factory=list)
@@ -520,13 +523,15 @@ def run_room_tasks(model: MotionModel, tasks: Sequence[RoomTask], seconds: float
         r = _run_room_tasks(model, tasks, **args)
         return {"execution_time": r.execution_time, "position_error": r.position_error,
                 "rotation_error": r.rotation_error, "reached": r.reached, "penetration": r.penetration,
-                "target_penetration": r.target_penetration, "joint_penetration": r.joint_penetration,
+                "target_penetration": r.target_penetration, "walking_penetration": r.walking_penetration,
+                "joint_penetration": r.joint_penetration,
                 "states": r.rollout.states, "roots": r.rollout.roots, "goal_index": r.rollout.goal_index,
                 "actions": r.rollout.actions, "waypoints": r.waypoints, "action_goal": r.action_goal}
 
     out = load_or_build("samp_room_runs", key, build)
     return RoomRunResults(out["execution_time"], out["position_error"], out["rotation_error"], out["reached"],
-                          out["penetration"], out["target_penetration"], out["joint_penetration"],
+                          out["penetration"], out["target_penetration"], out["walking_penetration"],
+                          out["joint_penetration"],
                           Rollout(out["states"], out["roots"], out["goal_index"], out["actions"]),
                           list(out["waypoints"]), float(reach_radius), list(out["action_goal"]))
 
@@ -567,13 +572,15 @@ def _run_room_tasks(model, tasks, seconds, seed, planning, latent_scale, settle,
                                                [t.goal_direction for t in tasks], settle, reach_radius, fps)
     rotations, positions = rollout_pose(out.states, out.roots)
     joints = positions.numpy()
-    body, target, joint = [], [], []
+    body, target, walking, joint = [], [], [], []
     for b, task in enumerate(tasks):
-        shares = penetration_shares(task.room, rotations[b], positions[b])  # the body, the whole run
-        body.append(shares["clutter"])
-        target.append(shares["target"])
+        depths = body_depths(task.room, rotations[b], positions[b])  # the body, every frame of the run
+        inside = depths["clutter"] > TOLERANCE
+        end = max(int(round(times[b] * fps)) if math.isfinite(times[b]) else n_frames, 1)  # up to the sit
+        body.append(inside.mean())
+        target.append(np.mean(depths["target"] > TOLERANCE))
+        walking.append(inside[:end].mean())
         # the book's first measure: joint centres, up to the sit (or the whole run when it never sat)
-        end = int(round(times[b] * fps)) if math.isfinite(times[b]) else n_frames
-        joint.append(penetrating_frames(task.room, joints[b, :max(end, 1)]).mean())
-    return RoomRunResults(times, pe, re, reached, np.asarray(body), np.asarray(target), np.asarray(joint), out,
-                          [w for _, w in plans], reach_radius, action_goal)
+        joint.append(penetrating_frames(task.room, joints[b, :end], tolerance=TOLERANCE).mean())
+    return RoomRunResults(times, pe, re, reached, np.asarray(body), np.asarray(target), np.asarray(walking),
+                          np.asarray(joint), out, [w for _, w in plans], reach_radius, action_goal)

@@ -434,9 +434,8 @@ def nearest_walkable_point(room, xy, start, *, radius: Optional[float] = None, m
     if not (math.isfinite(float(max_distance)) and float(max_distance) > 0.0):
         raise ValueError(f"max_distance: expected a positive number of metres, got {max_distance!r}")
     blocked = np.asarray(room.inflated_occupancy(radius), dtype=bool)
-    components, _ = ndimage.label(~blocked)  # as reaches(): astar's regions are the 4-connected ones
-    region = components == components[_point_cell(room, blocked, start, "start", radius)]
-    cells = np.argwhere(region)
+    _point_cell(room, blocked, start, "start", radius)  # a start inside an obstacle is an error
+    cells = np.argwhere(room.free_component(start, radius))  # astar's regions: 4-connected free cells
     centres = room.grid_to_world(cells).reshape(-1, 2)
     gaps = np.linalg.norm(centres - xy, axis=1)
     best = int(np.argmin(gaps))
