@@ -50,7 +50,7 @@ def main(argv=None):
     print(f"{len(tensors)} sit conditions × {args.samples} candidates = {rows} samples per call, "
           f"K = {model_config.diffusion_steps} steps, SCALE={args.scale}, {os.cpu_count()} CPU cores, "
           f"{args.threads} torch thread(s)")
-    for label, alpha in (("guided", field_config.alpha), ("unguided (α = 0)", 0.0)):
+    for label, alpha in (("guided", guidance.step_size(field_config)), ("unguided (α = 0)", 0.0)):
         def run():
             with threads_allowed(args.threads):
                 return guidance.guided_samples(model, cond, functools.partial(guidance.field_objective, field),

@@ -1,18 +1,22 @@
-"""Choose the guidance step size α of each NIFTY guidance variant by one protocol, and measure the last step.
+"""Choose the guidance step size α of each NIFTY guidance variant by one protocol, bracketed.
 
 NIFTY does not state α (Eq. 4). Every variant the chapters guide with -- the offset field (NIFTY), the distance
 field (Table 2), the non-parametric nearest anchor (Table 3), the 5-frame field (Table 6) and the human-frame field
 (Table 7) -- gets its α from the same protocol, on training conditions, never on the test scenes
-(``nifty.evaluation.guidance_alpha_sweep`` and ``chosen_alpha``): one guided sample for each of the 16 training
-conditions per action, for α in ``ALPHA_GRID``; the α with the lowest median skeleton distance, sit and lift pooled.
-It prints every α's numbers, the chosen α beside the one the library uses, and, for the offset field at its α, what
-guiding the last denoising step too (k = 0, which the Trace and Pace code skips) changes on the same conditions.
+(``nifty.evaluation.guidance_alpha_sweep`` and ``chosen_alpha``): for each α tried, N guided candidates for each of
+the 16 training conditions per action, the one with the lowest final objective kept (N = 10, as the tables sample);
+the α with the lowest median skeleton distance, sit and lift (and every seed given) pooled. The α tried are the
+library's current one and its neighbours on ``evaluation.ALPHA_GRID``, then further out while the best lies at an
+end of those tried, so every choice is bracketed (a worse α on each side) unless the grid runs out, which it says.
+It prints each seed's medians and choice beside the pooled one and the library's. Chapter 5 measures the last
+denoising step on the same conditions.
 
-It measures and never gates (exit code 0). Models, fields and sweeps are built or loaded from the artifact cache
-(``$HOI_CACHE``), one per CPU core.
+It measures and never gates (exit code 0). Models, fields and each α's samples are built or loaded from the artifact
+cache (``$HOI_CACHE``), one per CPU core.
 
-    python scripts/choose_guidance_alpha.py            # toy, seed 0 (the seed the library's values come from)
-    python scripts/choose_guidance_alpha.py --seed 1
+    python scripts/choose_guidance_alpha.py                  # toy, seed 0 (the library's values), N = 10
+    python scripts/choose_guidance_alpha.py --seeds 0 1 2    # every seed pooled, each seed's choice shown
+    python scripts/choose_guidance_alpha.py --seeds 3 --n-samples 1
 """
 import argparse
 import functools
@@ -24,9 +28,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from hoi_tutorial import intervals  # noqa: E402
 from hoi_tutorial.infra import warm_cache  # noqa: E402
-from hoi_tutorial.nifty import data, evaluation  # noqa: E402
+from hoi_tutorial.nifty import data, evaluation, guidance  # noqa: E402
 from hoi_tutorial.nifty import interaction_field as fields  # noqa: E402
 from hoi_tutorial.nifty import motion_model as mm  # noqa: E402
 
@@ -41,70 +44,103 @@ VARIANTS = {
 }
 
 
+def setup(scale, seed):
+    """The configs of one seed: ``(data, model, evaluation, {(action, variant): field or None})``."""
+    data_configs = {a: data.synthetic_data_config(a, scale, seed=seed) for a in ACTIONS}
+    model_configs = {a: mm.motion_model_config(a, scale, seed=seed) for a in ACTIONS}
+    field_configs = {(a, name): None if overrides is None else
+                     fields.interaction_field_config(a, scale, seed=seed, **overrides)
+                     for a in ACTIONS for name, (overrides, _) in VARIANTS.items()}
+    return data_configs, model_configs, evaluation.evaluation_config(scale, seed=seed), field_configs
+
+
+def sweeps(scale, seeds, tried, n_samples):
+    """``{(seed, action, variant): AlphaSweep}`` over each variant's α in ``tried``, built one per core (each
+    (seed, action, variant, α) its own artifact), then loaded."""
+    configs = {seed: setup(scale, seed) for seed in seeds}
+    first, rest, calls = [], [], {}
+    for seed, (data_configs, model_configs, eval_config, field_configs) in configs.items():
+        data.trained_prior(data_configs[ACTIONS[0]])
+        warm_cache([functools.partial(evaluation.build_evaluation, data_configs[a], model_configs[a], eval_config)
+                    for a in ACTIONS])
+        for name, (_, objective) in VARIANTS.items():
+            for a in ACTIONS:
+                args = (data_configs[a], model_configs[a], field_configs[(a, name)], eval_config)
+                calls[(seed, a, name)] = args
+                jobs = [functools.partial(evaluation.build_alpha_sweep, *args, alphas=(alpha,), objective=objective,
+                                          n_samples=n_samples) for alpha in sorted(tried[name])]
+                first, rest = first + jobs[:1], rest + jobs[1:]
+    # Each field's first α trains it; its other α then only load it (no two workers wait on one field).
+    warm_cache(first + rest)
+    out = {}
+    for (seed, a, name), (data_config, model_config, field_config, eval_config) in calls.items():
+        dataset = data.synthesize(data_config, progress=False)
+        out[(seed, a, name)] = evaluation.guidance_alpha_sweep(dataset, model_config, field_config, eval_config,
+                                                               alphas=tuple(sorted(tried[name])),
+                                                               objective=VARIANTS[name][1], n_samples=n_samples)
+    return out
+
+
+def pooled_medians(sweep_list):
+    """``{α: median skeleton distance}`` over every sweep given, pooled."""
+    return {alpha: float(np.median(np.concatenate([s.scores[alpha].skeleton_distance for s in sweep_list])))
+            for alpha in sweep_list[0].alphas}
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scale", default="toy")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0])
+    parser.add_argument("--n-samples", type=int, default=10, help="candidates per condition, the best by G kept")
     args = parser.parse_args(argv)
     pd.set_option("display.width", 160)
-    data_configs = {a: data.synthetic_data_config(a, args.scale, seed=args.seed) for a in ACTIONS}
-    model_configs = {a: mm.motion_model_config(a, args.scale, seed=args.seed) for a in ACTIONS}
-    eval_config = evaluation.evaluation_config(args.scale, seed=args.seed)
-    field_configs = {(a, name): None if overrides is None else
-                     fields.interaction_field_config(a, args.scale, seed=args.seed, **overrides)
-                     for a in ACTIONS for name, (overrides, _) in VARIANTS.items()}
-    offset_alpha = field_configs[(ACTIONS[0], "offset (NIFTY)")].alpha
-    sweep_kwargs = {**{(a, name): dict(alphas=evaluation.ALPHA_GRID, objective=objective)
-                       for name, (_, objective) in VARIANTS.items() for a in ACTIONS},
-                    **{(a, every): dict(alphas=(offset_alpha,), guide_last_step=every)
-                       for a in ACTIONS for every in (False, True)}}
+    grid = evaluation.ALPHA_GRID
+    field_configs = setup(args.scale, args.seeds[0])[3]
+    library = {name: guidance.step_size(field_configs[(ACTIONS[0], name)], objective)
+               for name, (_, objective) in VARIANTS.items()}
+    # Start at the library's α and its neighbours; go outwards while the pooled best lies at an end of those tried.
+    tried = {}
+    for name, alpha in library.items():
+        i = grid.index(alpha)
+        tried[name] = set(grid[max(i - 1, 0):i + 2])
+    while True:
+        results = sweeps(args.scale, args.seeds, tried, args.n_samples)
+        grown = False
+        for name in VARIANTS:
+            alphas = sorted(tried[name])
+            best = evaluation.chosen_alpha([results[(seed, a, name)] for seed in args.seeds for a in ACTIONS])
+            i = grid.index(best)
+            if best == alphas[0] and i > 0:
+                tried[name].add(grid[i - 1]); grown = True
+            elif best == alphas[-1] and i < len(grid) - 1:
+                tried[name].add(grid[i + 1]); grown = True
+        if not grown:
+            break
 
-    def field_of(key):
-        action, name = key
-        return field_configs[(action, "offset (NIFTY)" if isinstance(name, bool) else name)]
-
-    def call(key, builder):
-        return functools.partial(builder, data_configs[key[0]], model_configs[key[0]], field_of(key), eval_config,
-                                 **sweep_kwargs[key])
-
-    # Built one per core (infra.warm_cache): the models and their evaluations first (every variant shares them),
-    # then one sweep per field (each trains its field), then the last-step pair; then everything loads.
-    warm_cache([functools.partial(evaluation.build_evaluation, data_configs[a], model_configs[a], eval_config)
-                for a in ACTIONS])
-    grid = [key for key in sweep_kwargs if not isinstance(key[1], bool)]
-    warm_cache([call(key, evaluation.build_alpha_sweep) for key in grid])
-    warm_cache([call(key, evaluation.build_alpha_sweep) for key in sweep_kwargs if key not in grid])
-    datasets = {a: data.synthesize(data_configs[a], progress=False) for a in ACTIONS}
-    results = {key: evaluation.guidance_alpha_sweep(datasets[key[0]], model_configs[key[0]], field_of(key),
-                                                    eval_config, **kw) for key, kw in sweep_kwargs.items()}
-    sweeps = {key: results[key] for key in grid}
-    last = {key: results[key] for key in sweep_kwargs if key not in grid}
-
-    print(f"Guidance step size per variant ({args.scale}, seed {args.seed}; 16 training conditions per action, "
-          "one guided sample each)\n")
-    for name, (overrides, objective) in VARIANTS.items():
-        table = pd.concat({a: pd.DataFrame(sweeps[(a, name)].summary()).T for a in ACTIONS}, axis=1)
-        table[("pooled", "skeleton distance (m, median)")] = [
-            float(np.median(np.concatenate([sweeps[(a, name)].scores[alpha].skeleton_distance for a in ACTIONS])))
-            for alpha in evaluation.ALPHA_GRID]
+    print(f"Guidance step size per variant ({args.scale}; 16 training conditions per action, best of "
+          f"{args.n_samples} by the final objective; seeds {', '.join(map(str, args.seeds))})\n")
+    summary = {}
+    for name in VARIANTS:
+        table = {}
+        for seed in args.seeds:
+            for a in ACTIONS:
+                table[(f"seed {seed}", a)] = pooled_medians([results[(seed, a, name)]])
+            table[(f"seed {seed}", "pooled")] = pooled_medians([results[(seed, a, name)] for a in ACTIONS])
+        every = [results[(seed, a, name)] for seed in args.seeds for a in ACTIONS]
+        table[("all seeds", "pooled")] = pooled_medians(every)
+        table = pd.DataFrame(table)
         table.index.name = "α"
-        chosen = evaluation.chosen_alpha([sweeps[(a, name)] for a in ACTIONS])
-        used = evaluation.default_alpha(field_configs[(ACTIONS[0], name)], VARIANTS[name][1])
-        print(f"== {name}: the protocol chooses α = {chosen:g}; the library uses α = {used:g}")
+        alphas = sorted(tried[name])
+        chosen = {f"seed {seed}": evaluation.chosen_alpha([results[(seed, a, name)] for a in ACTIONS])
+                  for seed in args.seeds}
+        pooled = evaluation.chosen_alpha(every)
+        summary[name] = {**chosen, "pooled": pooled, "bracketed": alphas[0] < pooled < alphas[-1],
+                         "library": library[name]}
+        print(f"== {name}: median skeleton distance (m) of the kept sample")
         print(table.round(3).to_string(), "\n")
-
-    print(f"== The last denoising step (offset field, α = {offset_alpha:g}): guided from k = K-1 down to 1 "
-          "(Trace and Pace) or down to 0 (every step)")
-    for a in ACTIONS:
-        skip, every = last[(a, False)], last[(a, True)]
-        s, e = skip.scores[offset_alpha], every.scores[offset_alpha]
-        diff = intervals.paired_difference(e.skeleton_distance, s.skeleton_distance)
-        print(f"{a}: G median {np.median(skip.objective[offset_alpha]):.3f} -> "
-              f"{np.median(every.objective[offset_alpha]):.3f} m²; skeleton distance median "
-              f"{np.median(s.skeleton_distance):.3f} -> {np.median(e.skeleton_distance):.3f} m "
-              f"(every step minus skipping, mean {diff.format(unit='m')}, {diff.n} conditions: "
-              f"{diff.verdict('below')}); D2O ≤ 2 cm {int((s.d2o <= 0.02).sum())} -> {int((e.d2o <= 0.02).sum())} "
-              f"of {len(s.d2o)}")
+    print("== The chosen α per variant (each seed's, and every seed pooled; bracketed: the pooled choice has a worse "
+          "α tried on each side)")
+    print(pd.DataFrame(summary).T.to_string())
     return 0
 
 

@@ -525,30 +525,33 @@ def test_guided_by_the_nearest_anchor_needs_no_field(sit_case, tmp_cache):
         evaluation.evaluate_guided(dataset, model_config, None, config, n_scenes=1, objective="random")
 
 
-def test_guided_evaluation_defaults_to_its_fields_alpha_and_the_sweep_scores_training_conditions(sit_case, tmp_cache):
+def test_guided_evaluation_defaults_to_its_variants_alpha_and_the_sweep_scores_training_conditions(sit_case, tmp_cache):
     from hoi_tutorial.nifty import guidance
     from hoi_tutorial.nifty.interaction_field import interaction_field_config
 
     dataset, model_config = _tiny_dataset_and_model(sit_case)
     field_config = interaction_field_config("sit", "toy", width=32, layers=1, pointnet_hidden=(32,),
-                                            copies_per_sequence=2, steps=5, batch_size=4, guidance_alpha=0.7)
+                                            copies_per_sequence=2, steps=5, batch_size=4, n_frames=5)
     config = evaluation.EvaluationConfig(n_scenes=2, n_training=2, n_approach_sequences=2, n_object_points=200)
     result = evaluation.evaluate_guided(dataset, model_config, field_config, config, n_samples=1, n_scenes=1)
-    assert result.alpha == 0.7  # the field's own α, not another variant's
-    assert evaluation.default_alpha(None, "nearest_anchor") == guidance.GUIDANCE_ALPHA["nearest_anchor"]
-    with pytest.raises(ValueError, match="field_config"):
-        evaluation.default_alpha(None, "field")
+    assert result.alpha == guidance.GUIDANCE_ALPHA["5 frames"]  # the variant's own α, not NIFTY's
+    assert result.alpha != guidance.GUIDANCE_ALPHA["offset"]
 
     sweep = evaluation.guidance_alpha_sweep(dataset, model_config, field_config, config, alphas=(0.1, 3.0))
     unguided = evaluation.evaluate_motion_model(dataset, model_config, config)
-    assert sweep.alphas == (0.1, 3.0) and not sweep.guide_last_step
+    assert sweep.alphas == (0.1, 3.0) and not sweep.guide_last_step and sweep.n_samples == 1
     for alpha in sweep.alphas:  # one sample per training condition of the unguided evaluation
         assert len(sweep.scores[alpha]) == len(unguided.training_index) == 2
         assert sweep.objective[alpha].shape == (2,)
     assert not np.array_equal(sweep.objective[0.1], sweep.objective[3.0])  # α moves the samples
     assert set(sweep.summary()) == {0.1, 3.0}
+    # Best of N by the final objective, as the tables sample.
+    best = evaluation.guidance_alpha_sweep(dataset, model_config, field_config, config, alphas=(3.0,), n_samples=3)
+    assert best.n_samples == 3 and best.objective[3.0].shape == (2,)
     with pytest.raises(ValueError, match="alphas"):
         evaluation.guidance_alpha_sweep(dataset, model_config, field_config, config, alphas=(0.0,))
+    with pytest.raises(ValueError, match="n_samples"):
+        evaluation.guidance_alpha_sweep(dataset, model_config, field_config, config, n_samples=0)
 
 
 def test_chosen_alpha_is_the_lowest_pooled_median_skeleton_distance():

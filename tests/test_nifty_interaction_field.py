@@ -310,45 +310,37 @@ def test_guiding_the_last_step_changes_only_the_final_step(sit_tensors):
         guidance.guided_samples(model, cond, objective_for, alpha=0.1, guide_last_step=1, generator=torch.Generator())
 
 
-def test_each_field_variant_carries_its_guidance_step_size():
-    table = field_module.GUIDANCE_ALPHA_BY_VARIANT
+def test_each_field_variant_guides_with_its_own_step_size():
+    from hoi_tutorial.nifty import guidance
+
+    table = guidance.GUIDANCE_ALPHA
     variants = {"offset": {}, "distance": {"output": "distance"}, "human frame": {"frame": "human"},
                 "5 frames": {"n_frames": 5}}
     for name, overrides in variants.items():
         config = interaction_field_config("lift", "toy", **overrides)
         assert field_module.field_variant(config) == name
-        assert config.alpha == table[name]  # visible in the config a chapter prints
+        assert guidance.step_size(config) == table[name]
     # The share of anchors (Table 5) keeps the offset field's form, and its α.
-    assert interaction_field_config("sit", anchor_fraction=0.5).alpha == table["offset"]
-    assert interaction_field_config("sit", guidance_alpha=7).alpha == 7.0
-    # Derived by replace, a config takes its new variant's α (none is stored for the old one).
+    assert guidance.step_size(interaction_field_config("sit", anchor_fraction=0.5)) == table["offset"]
+    # Derived by replace, a config takes its new variant's α.
     five = dataclasses.replace(interaction_field_config("sit"), n_frames=5)
-    assert five.alpha == table["5 frames"]
+    assert guidance.step_size(five) == table["5 frames"]
+    assert guidance.step_size(None, "nearest_anchor") == table["nearest_anchor"]
     with pytest.raises(ValueError, match="no step size was chosen"):
-        interaction_field_config("sit", n_frames=10).alpha
-    with pytest.raises(ValueError, match="guidance_alpha"):
-        interaction_field_config("sit", guidance_alpha=0.0)
+        guidance.step_size(interaction_field_config("sit", n_frames=10))
+    with pytest.raises(ValueError, match="field_config"):
+        guidance.step_size(None, "field")
+    with pytest.raises(ValueError, match="objective"):
+        guidance.step_size(interaction_field_config("sit"), "random")
 
 
-def test_the_guidance_step_size_is_not_part_of_the_trained_fields_key(monkeypatch):
-    keys = []
+def test_the_guidance_step_sizes_are_outside_the_trained_fields_code():
+    # A trained field's cache key hashes its module's import closure: choosing α again must not retrain a field.
+    from hoi_tutorial.infra.code_closure import code_closure
 
-    def record(name, key, build, code=()):
-        keys.append(key)
-        raise RuntimeError("recorded")
-
-    monkeypatch.setattr(field_module, "load_or_build", record)
-
-    from types import SimpleNamespace
-
-    from hoi_tutorial.nifty.data import synthetic_data_config
-
-    dataset = SimpleNamespace(config=synthetic_data_config("sit"))  # only its config reaches the key
-    for alpha in (3.0, 30.0):
-        with pytest.raises(RuntimeError, match="recorded"):
-            field_module.trained_interaction_field(dataset, motion_model_config("sit"),
-                                                   _tiny_field_config(guidance_alpha=alpha))
-    assert keys[0] == keys[1] and "guidance_alpha" not in keys[0]["field"]
+    closure = code_closure(field_module)
+    assert "hoi_tutorial.nifty.interaction_field" in closure
+    assert "hoi_tutorial.nifty.guidance" not in closure and "hoi_tutorial.nifty.evaluation" not in closure
 
 
 def test_field_training_runs_on_one_thread(sit_tensors, monkeypatch):

@@ -81,7 +81,7 @@ def overfit(sit_records):
 def test_presets_name_the_paper_sizes():
     toy, paper = motion_model_config("sit", "toy"), motion_model_config("lift", "paper")
     assert (toy.max_frames, toy.width, toy.layers, toy.heads, toy.diffusion_steps, toy.n_points) == \
-        (121, 64, 2, 4, 100, 256)
+        (121, 64, 2, 4, 50, 256)
     assert (paper.max_frames, paper.width, paper.layers, paper.heads, paper.diffusion_steps, paper.n_points,
             paper.lr, paper.batch_size, paper.p_uncond, paper.guidance_scale, paper.dropout) == \
         (150, 512, 8, 4, 1000, 5000, 1e-4, 32, 0.1, 2.5, 0.1)

@@ -48,7 +48,6 @@ __all__ = [
     "evaluate_cond_vae",
     "CONTROLS",
     "evaluate_controls",
-    "default_alpha",
     "ALPHA_GRID",
     "AlphaSweep",
     "guidance_alpha_sweep",
@@ -275,15 +274,6 @@ def _check_objective(objective: str, field_config) -> None:
         raise ValueError("field_config: expected an InteractionFieldConfig for objective='field', got None")
 
 
-def default_alpha(field_config, objective: str = "field") -> float:
-    """The guidance step size α a variant guides with: its field's ``alpha``, or the
-    non-parametric field's ``guidance.GUIDANCE_ALPHA["nearest_anchor"]``."""
-    _check_objective(objective, field_config)
-    if objective == "nearest_anchor":
-        return float(guidance.GUIDANCE_ALPHA["nearest_anchor"])
-    return float(field_config.alpha)
-
-
 def _objective_for(dataset, model_config, field_config, objective: str, objects, device):
     """``objective_for(cond, n_samples) -> G`` for scenes with these ``objects``: the trained field's
     objective, or D.1's nearest anchor pose of the object (the anchors of each object's category)."""
@@ -314,9 +304,8 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
         field_config: the ``nifty.interaction_field.InteractionFieldConfig`` of the field.
         config: an :class:`EvaluationConfig` (default: the toy preset).
         n_samples: candidates per scene, N (NIFTY: 10).
-        alpha: guidance step size (default: the field's ``field_config.alpha``, or
-            ``guidance.GUIDANCE_ALPHA["nearest_anchor"]``); ``0`` samples without guidance and only
-            selects by the objective (the *selection only* control).
+        alpha: guidance step size (default: the variant's, ``guidance.step_size``); ``0`` samples without
+            guidance and only selects by the objective (the *selection only* control).
         n_scenes: the first this many test scenes (default all).
         objective: ``"field"`` (NIFTY) or ``"nearest_anchor"`` (Table 3's non-parametric field).
         device: where to train (if needed) and sample.
@@ -325,7 +314,7 @@ def evaluate_guided(dataset, model_config, field_config, config: Optional[Evalua
     """
     _check_objective(objective, field_config)
     config = config or EvaluationConfig()
-    alpha = default_alpha(field_config, objective) if alpha is None else float(alpha)
+    alpha = guidance.step_size(field_config, objective) if alpha is None else float(alpha)
     unguided = evaluate_motion_model(dataset, model_config, config, device=device)
     scenes = unguided.test_scenes[:n_scenes] if n_scenes is not None else unguided.test_scenes
     if not scenes:
@@ -464,8 +453,9 @@ def build_table1(data_config, model_config, field_config, vae_config, config: Op
 
 # --------------------------------------------------------------------------- choosing α (ours: NIFTY does not state it)
 
-# The step sizes the protocol tries, a factor of about 3 apart.
-ALPHA_GRID = (3.0, 10.0, 30.0, 100.0)
+# The step sizes the protocol may try, a factor of about 3 apart (``scripts/choose_guidance_alpha.py`` tries a
+# variant's current α and its neighbours, and goes on outwards while the best lies at an end).
+ALPHA_GRID = (0.3, 1.0, 3.0, 10.0, 30.0, 100.0, 300.0)
 
 
 @dataclass
@@ -477,12 +467,14 @@ class AlphaSweep:
         scores: ``{α: MotionScores}`` of the one guided sample per training condition.
         objective: ``{α: (C,)}`` each sample's final guidance objective (m²).
         guide_last_step: whether the last denoising step was guided too.
+        n_samples: candidates per condition, N (the best by the objective kept).
     """
 
     alphas: tuple
     scores: dict
     objective: dict
     guide_last_step: bool
+    n_samples: int = 1
 
     def summary(self) -> dict:
         """``{α: {"G (m², median)", "skeleton distance (m, median)", "D2O ≤ 2 cm"}}``."""
@@ -494,26 +486,30 @@ class AlphaSweep:
 
 def guidance_alpha_sweep(dataset, model_config, field_config, config: Optional[EvaluationConfig] = None, *,
                          alphas: Sequence[float] = ALPHA_GRID, objective: str = "field", guide_last_step: bool = False,
-                         device="cpu") -> AlphaSweep:
+                         n_samples: int = 1, device="cpu") -> AlphaSweep:
     """The protocol that chooses a variant's guidance step size α (Eq. 4; NIFTY does not state α), once
     (then from the cache).
 
-    For each α, one guided sample (N = 1: nothing selects) for each of the ``config.n_training``
-    training conditions :func:`evaluate_motion_model` samples (the training sequences' own starts and
-    objects, never a test scene), scored by :func:`evaluate_motions` against the training anchors.
+    For each α, ``n_samples`` guided candidates for each of the ``config.n_training`` training conditions
+    :func:`evaluate_motion_model` samples (the training sequences' own starts and objects, never a test
+    scene), the one with the lowest final objective kept (as the tables sample; N = 1: nothing selects),
+    scored by :func:`evaluate_motions` against the training anchors.
     :func:`chosen_alpha` reads the result; ``scripts/choose_guidance_alpha.py`` runs it for every variant.
 
     Args:
         dataset, model_config, field_config, config: as :func:`evaluate_guided` (``field_config`` ``None``
-            for ``objective="nearest_anchor"``; its ``guidance_alpha`` is not used).
+            for ``objective="nearest_anchor"``).
         alphas: the step sizes to try (each > 0).
         objective: ``"field"`` or ``"nearest_anchor"``.
         guide_last_step: guide the last denoising step too (``guidance.guided_samples``).
+        n_samples: candidates per condition, N (the tables: 10).
         device: where to sample.
     Returns:
         an :class:`AlphaSweep`.
     """
     _check_objective(objective, field_config)
+    if isinstance(n_samples, bool) or not isinstance(n_samples, int) or n_samples < 1:
+        raise ValueError(f"n_samples: expected a positive int, got {n_samples!r}")
     alphas = tuple(float(a) for a in alphas)
     if not alphas or not all(a > 0 for a in alphas):
         raise ValueError(f"alphas: expected step sizes > 0, got {alphas!r}")
@@ -522,33 +518,33 @@ def guidance_alpha_sweep(dataset, model_config, field_config, config: Optional[E
     sequences = [dataset.sequences[i] for i in unguided.training_index]
     objects = [s.obj for s in sequences]
 
-    def build():
+    def build(alpha):
         model = motion_model.trained_motion_model(dataset, model_config, device=device).model
         tensors = motion_model.InteractionTensors.from_sequences(sequences, model_config.max_frames,
                                                                  model_config.n_points, model_config.seed)
         cond = {name: tensors.condition()[name] for name in motion_model.CONDITION_KEYS}
         objective_for = _objective_for(dataset, model_config, field_config, objective, objects, device)
-        out = {}
-        for alpha in alphas:
-            samples = guidance.guided_samples(model, cond, objective_for, n_samples=1, alpha=alpha,
-                                              generator=torch.Generator().manual_seed(config.seed),
-                                              guidance_scale=config.guidance_scale, guide_last_step=guide_last_step,
-                                              device=device)
-            motions = motion_model.states_to_motions(samples.states, cond["betas"], tensors.world_from_canonical)
-            scores = evaluate_motions(motions, objects, dataset.training_anchors, unguided.n_approach,
-                                      config.n_object_points, config.seed)
-            out[repr(alpha)] = {"metrics": scores.as_dict(), "objective": samples.objective.numpy()}
-        return out
+        samples = guidance.guided_samples(model, cond, objective_for, n_samples=n_samples, alpha=alpha,
+                                          generator=torch.Generator().manual_seed(config.seed),
+                                          guidance_scale=config.guidance_scale, guide_last_step=guide_last_step,
+                                          device=device)
+        motions = motion_model.states_to_motions(samples.states, cond["betas"], tensors.world_from_canonical)
+        scores = evaluate_motions(motions, objects, dataset.training_anchors, unguided.n_approach,
+                                  config.n_object_points, config.seed)
+        return {"metrics": scores.as_dict(), "objective": samples.objective.numpy()}
 
-    # α is what is swept: the field's own is not part of the key.
-    field = interaction_field.training_key(field_config) if objective == "field" else None
-    key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config), "field": field,
-           "objective": objective, "evaluation": dataclasses.asdict(config), "alphas": list(alphas),
-           "guide_last_step": guide_last_step}
-    artifact = load_or_build(f"nifty_{dataset.config.action}_alpha_sweep", key, build)
-    return AlphaSweep(alphas=alphas, scores={a: MotionScores(**artifact[repr(a)]["metrics"]) for a in alphas},
-                      objective={a: np.asarray(artifact[repr(a)]["objective"]) for a in alphas},
-                      guide_last_step=guide_last_step)
+    # One artifact per α, each with the same noise: a grid extended later reuses the step sizes already tried.
+    field = dataclasses.asdict(field_config) if objective == "field" else None
+    artifacts = {}
+    for alpha in alphas:
+        key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config), "field": field,
+               "objective": objective, "evaluation": dataclasses.asdict(config), "alpha": alpha,
+               "guide_last_step": guide_last_step, "n_samples": n_samples}
+        artifacts[alpha] = load_or_build(f"nifty_{dataset.config.action}_alpha_sweep", key,
+                                         functools.partial(build, alpha))
+    return AlphaSweep(alphas=alphas, scores={a: MotionScores(**artifacts[a]["metrics"]) for a in alphas},
+                      objective={a: np.asarray(artifacts[a]["objective"]) for a in alphas},
+                      guide_last_step=guide_last_step, n_samples=n_samples)
 
 
 def build_alpha_sweep(data_config, model_config, field_config, config: Optional[EvaluationConfig] = None,

@@ -58,8 +58,6 @@ __all__ = [
     "FIELD_OUTPUTS",
     "InteractionFieldConfig",
     "field_variant",
-    "training_key",
-    "GUIDANCE_ALPHA_BY_VARIANT",
     "INTERACTION_FIELD_SCALES",
     "interaction_field_config",
     "simplified_pose",
@@ -78,22 +76,6 @@ __all__ = [
 POSE_POINTS = NUM_JOINTS + 1  # the 22 joints j^p and the root translation t^p
 FIELD_FRAMES = ("object", "human")
 
-# The guidance step size α (Eq. 4) each field variant guides with at toy scale. NIFTY does not state α (step sizes
-# are tuned per objective, as in the Trace and Pace code its Eq. 4 follows); ours, each chosen by the same protocol,
-# on training conditions, never on the test scenes: ``nifty.evaluation.guidance_alpha_sweep`` over α ∈ {3, 10, 30,
-# 100}, one guided sample for each of 16 training conditions per action (seed 0), the α whose samples end closest
-# to the training anchors (the lowest median skeleton distance, sit and lift pooled; ``chosen_alpha``).
-# ``scripts/choose_guidance_alpha.py`` reruns it and prints every α's numbers. Measured (pooled median skeleton
-# distance, m, for α = 3 / 10 / 30 / 100): offset 5.47 / 2.67 / 2.03 / 31.0; distance 5.58 / 2.88 / 2.07 / 36.8;
-# human frame 5.59 / 2.88 / 2.07 / 24.7; 5 frames 2.25 / 8.87 / 29.1 / 31.9. The 5-frame objective sums five
-# poses' offsets, so the same α pulls about five times as hard: 30 overshoots (sit G median 249 m² against 0.62 at
-# α = 3), as NIFTY's Appendix D.4 warns ("requires a more careful tuning of ... the guidance weights").
-GUIDANCE_ALPHA_BY_VARIANT = {
-    "offset": 30.0,
-    "distance": 30.0,
-    "human frame": 30.0,
-    "5 frames": 3.0,
-}
 FIELD_OUTPUTS = ("offset", "distance")
 
 
@@ -126,9 +108,6 @@ class InteractionFieldConfig:
             PyTorch's ``OneCycleLR`` defaults (NIFTY gives only the policy); ``warmup_steps`` 0
             rises for 30 % of the steps (its default ``pct_start``).
         seed: seeds the pairs (noise levels, noise, transforms), the weights and the batches.
-        guidance_alpha: an explicit guidance step size α for this field (Eq. 4); ``None`` (the default):
-            its variant's, from :data:`GUIDANCE_ALPHA_BY_VARIANT`. Read the one in force as :attr:`alpha`.
-            It does not change the field's training, so it is left out of the trained field's cache key.
     """
 
     action: str = "sit"
@@ -153,17 +132,11 @@ class InteractionFieldConfig:
     weight_decay: float = 0.0
     grad_clip: Optional[float] = 1.0
     seed: int = 0
-    guidance_alpha: Optional[float] = None
 
     def __post_init__(self):
         check_choice(self.action, ("sit", "lift"), "action")
         check_choice(self.frame, FIELD_FRAMES, "frame")
         check_choice(self.output, FIELD_OUTPUTS, "output")
-        if self.guidance_alpha is not None:
-            if isinstance(self.guidance_alpha, bool) or not isinstance(self.guidance_alpha, (int, float)) \
-                    or not self.guidance_alpha > 0:
-                raise ValueError(f"guidance_alpha: expected a step size > 0 or None, got {self.guidance_alpha!r}")
-            object.__setattr__(self, "guidance_alpha", float(self.guidance_alpha))
         if not 0.0 < float(self.anchor_fraction) <= 1.0:
             raise ValueError(f"anchor_fraction: expected a share in (0, 1], got {self.anchor_fraction!r}")
         check_positive_ints(self, ("n_frames", "width", "layers", "heads", "copies_per_sequence", "steps",
@@ -173,25 +146,8 @@ class InteractionFieldConfig:
         if not 0.0 <= self.augment_fraction <= 1.0:
             raise ValueError(f"augment_fraction: expected a probability in [0, 1], got {self.augment_fraction!r}")
 
-    @property
-    def alpha(self) -> float:
-        """The guidance step size α this field guides with: ``guidance_alpha`` when given, else its variant's
-        (:data:`GUIDANCE_ALPHA_BY_VARIANT`, chosen on training conditions).
-
-        Raises:
-            ValueError: a variant no step size was chosen for, and no ``guidance_alpha`` given.
-        """
-        if self.guidance_alpha is not None:
-            return self.guidance_alpha
-        variant = field_variant(self)
-        if variant not in GUIDANCE_ALPHA_BY_VARIANT:
-            raise ValueError(f"guidance_alpha: no step size was chosen for the {variant!r} field (chosen: "
-                             f"{sorted(GUIDANCE_ALPHA_BY_VARIANT)}); pass guidance_alpha=")
-        return GUIDANCE_ALPHA_BY_VARIANT[variant]
-
-
 def field_variant(config: InteractionFieldConfig) -> str:
-    """The field's form, as :data:`GUIDANCE_ALPHA_BY_VARIANT` names it: ``"offset"`` (NIFTY),
+    """The field's form, as ``guidance.GUIDANCE_ALPHA`` names it: ``"offset"`` (NIFTY),
     ``"distance"`` (Table 2), ``"human frame"`` (Table 7), ``"m frames"`` (Table 6), or the changes
     joined by ``", "``. The share of anchors trained on (Table 5) does not change the form."""
     parts = []
@@ -202,12 +158,6 @@ def field_variant(config: InteractionFieldConfig) -> str:
     if config.n_frames > 1:
         parts.append(f"{config.n_frames} frames")
     return ", ".join(parts) or "offset"
-
-
-def training_key(config: InteractionFieldConfig) -> dict:
-    """The configuration a trained field depends on: every field but ``guidance_alpha``, which guides with the
-    field and does not change its training (a cache key's part)."""
-    return {name: value for name, value in dataclasses.asdict(config).items() if name != "guidance_alpha"}
 
 
 # What the larger scales change (paper: NIFTY §4.1's training, Appendix B's transformer sizes).
@@ -584,7 +534,7 @@ def trained_interaction_field(dataset, model_config, config: InteractionFieldCon
                 "seconds": float(result.seconds), "n_pairs": len(pairs), "zero_field_loss": float(zero)}
 
     key = {"data": dataclasses.asdict(dataset.config), "model": dataclasses.asdict(model_config),
-           "field": training_key(config)}
+           "field": dataclasses.asdict(config)}
     # the motion model's data pipeline, which its imports do not show (motion_model.model_code)
     artifact = load_or_build(f"nifty_{config.action}_interaction_field", key, build, code=motion_model.model_code())
     field = InteractionField(config)

@@ -103,7 +103,7 @@ class MotionModelConfig:
         dropout: dropout inside the transformer (MDM: 0.1).
         n_points: points of the object cloud ``P_o`` (NIFTY: 5000).
         pointnet_hidden: widths of the PointNet's shared per-point layers.
-        diffusion_steps: K (NIFTY: 1000).
+        diffusion_steps: K (NIFTY: 1000; the toy preset's 50 is a scale-down, like its width and steps).
         p_uncond: probability of dropping the whole condition in training (NIFTY: 0.1).
         guidance_scale: classifier-free guidance scale ``s`` at sampling (MDM: 2.5).
         steps: optimiser steps (NIFTY: 600K).
@@ -123,7 +123,7 @@ class MotionModelConfig:
     dropout: float = 0.0
     n_points: int = 256
     pointnet_hidden: tuple = (64, 128)
-    diffusion_steps: int = 100
+    diffusion_steps: int = 50
     p_uncond: float = 0.1
     guidance_scale: float = 2.5
     steps: int = 1000
