@@ -16,7 +16,7 @@ cache (``$HOI_CACHE``), one per CPU core.
 
     python scripts/choose_guidance_alpha.py                  # toy, seed 0 (the library's values), N = 10
     python scripts/choose_guidance_alpha.py --seeds 0 1 2    # every seed pooled, each seed's choice shown
-    python scripts/choose_guidance_alpha.py --seeds 3 --n-samples 1
+    python scripts/choose_guidance_alpha.py --seeds 3 --n-samples 1 --variants "offset (NIFTY)"
 """
 import argparse
 import functools
@@ -63,7 +63,8 @@ def sweeps(scale, seeds, tried, n_samples):
         data.trained_prior(data_configs[ACTIONS[0]])
         warm_cache([functools.partial(evaluation.build_evaluation, data_configs[a], model_configs[a], eval_config)
                     for a in ACTIONS])
-        for name, (_, objective) in VARIANTS.items():
+        for name in tried:
+            objective = VARIANTS[name][1]
             for a in ACTIONS:
                 args = (data_configs[a], model_configs[a], field_configs[(a, name)], eval_config)
                 calls[(seed, a, name)] = args
@@ -92,12 +93,15 @@ def main(argv=None):
     parser.add_argument("--scale", default="toy")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
     parser.add_argument("--n-samples", type=int, default=10, help="candidates per condition, the best by G kept")
+    parser.add_argument("--variants", nargs="+", choices=list(VARIANTS), default=list(VARIANTS), metavar="VARIANT",
+                        help=f"the variants to choose for (default all: {', '.join(VARIANTS)})")
     args = parser.parse_args(argv)
+    variants = {name: VARIANTS[name] for name in args.variants}
     pd.set_option("display.width", 160)
     grid = evaluation.ALPHA_GRID
     field_configs = setup(args.scale, args.seeds[0])[3]
     library = {name: guidance.step_size(field_configs[(ACTIONS[0], name)], objective)
-               for name, (_, objective) in VARIANTS.items()}
+               for name, (_, objective) in variants.items()}
     # Start at the library's α and its neighbours; go outwards while the pooled best lies at an end of those tried.
     tried = {}
     for name, alpha in library.items():
@@ -106,7 +110,7 @@ def main(argv=None):
     while True:
         results = sweeps(args.scale, args.seeds, tried, args.n_samples)
         grown = False
-        for name in VARIANTS:
+        for name in variants:
             alphas = sorted(tried[name])
             best = evaluation.chosen_alpha([results[(seed, a, name)] for seed in args.seeds for a in ACTIONS])
             i = grid.index(best)
@@ -120,7 +124,7 @@ def main(argv=None):
     print(f"Guidance step size per variant ({args.scale}; 16 training conditions per action, best of "
           f"{args.n_samples} by the final objective; seeds {', '.join(map(str, args.seeds))})\n")
     summary = {}
-    for name in VARIANTS:
+    for name in variants:
         table = {}
         for seed in args.seeds:
             for a in ACTIONS:
