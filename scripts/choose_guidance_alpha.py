@@ -88,6 +88,17 @@ def pooled_medians(sweep_list):
             for alpha in sweep_list[0].alphas}
 
 
+def next_alpha(tried, best, grid):
+    """The step size to try next: the grid's next one beyond ``best`` where ``best`` lies at an end of those
+    ``tried`` (no worse α tried on that side), else ``None`` (bracketed, or the grid runs out)."""
+    alphas, i = sorted(tried), grid.index(best)
+    if best == alphas[0] and i > 0:
+        return grid[i - 1]
+    if best == alphas[-1] and i < len(grid) - 1:
+        return grid[i + 1]
+    return None
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scale", default="toy")
@@ -111,13 +122,11 @@ def main(argv=None):
         results = sweeps(args.scale, args.seeds, tried, args.n_samples)
         grown = False
         for name in variants:
-            alphas = sorted(tried[name])
             best = evaluation.chosen_alpha([results[(seed, a, name)] for seed in args.seeds for a in ACTIONS])
-            i = grid.index(best)
-            if best == alphas[0] and i > 0:
-                tried[name].add(grid[i - 1]); grown = True
-            elif best == alphas[-1] and i < len(grid) - 1:
-                tried[name].add(grid[i + 1]); grown = True
+            further = next_alpha(tried[name], best, grid)
+            if further is not None:
+                tried[name].add(further)
+                grown = True
         if not grown:
             break
 
