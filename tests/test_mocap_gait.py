@@ -332,6 +332,12 @@ def test_unknown_kind_lists_the_registered_kinds():
         assert kind in str(info.value)
 
 
+def test_a_bare_string_of_kinds_is_refused_by_name():
+    # list("sit") would be its letters, and the error would name "s"
+    with pytest.raises(ValueError, match=r"a sequence of kind names such as \('sit',\), got the string 'sit'"):
+        mocap.generate_dataset(1, seed=0, kinds="sit")
+
+
 # ----------------------------------------------------------------------------- front door
 
 def test_registry_has_locomotion_kinds_and_labels_clips():

@@ -281,5 +281,9 @@ def test_gating_and_moe_mlp():
     assert not torch.allclose(net(x, gate_in, z + 1), out)  # the extra input reaches the layers
     with pytest.raises(ValueError, match="extra"):
         net(x, gate_in)
+    # A gating input of the wrong width or batch is named as the caller passed it (not the gating net's "x").
+    for wrong in (torch.randn(10, 4), torch.randn(9, 5)):
+        with pytest.raises(ValueError, match="gating_input"):
+            net(x, wrong, z)
     out.sum().backward()
     assert all(p.grad is not None for p in net.parameters())

@@ -111,6 +111,8 @@ class MoEMLP(nn.Module):
             ``(B, out_dim)``, or ``(prediction, weights)``.
         """
         check_shape(x, (None, self.in_dim), "x")
+        # checked here, by the caller's name: the gating network and the layers would name their own arguments
+        check_shape(gating_input, (x.shape[0], self.gating.in_dim), "gating_input")
         if self.extra_dim:
             if extra is None:
                 raise ValueError(f"extra: expected a (B, {self.extra_dim}) tensor (extra_dim > 0)")

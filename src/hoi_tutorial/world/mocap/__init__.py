@@ -282,6 +282,8 @@ def generate_dataset(n_per_kind: int, *, seed: int, kinds: Optional[Sequence[str
         raise ValueError(f"n_per_kind: expected a non-negative int, got {n_per_kind!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed: expected a non-negative int, got {seed!r}")
+    if isinstance(kinds, str):  # list("sit") would be its letters
+        raise ValueError(f"kinds: expected a sequence of kind names such as ({kinds!r},), got the string {kinds!r}")
     kinds = list(ACTION_GENERATORS) if kinds is None else list(kinds)
     for kind in kinds:
         if kind not in ACTION_GENERATORS:
