@@ -25,7 +25,6 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
-import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from hoi_tutorial.infra import warm_cache  # noqa: E402
@@ -73,19 +72,14 @@ def sweeps(scale, seeds, tried, n_samples):
                 first, rest = first + jobs[:1], rest + jobs[1:]
     # Each field's first α trains it; its other α then only load it (no two workers wait on one field).
     warm_cache(first + rest)
+    datasets = {(seed, a): data.synthesize(configs[seed][0][a], progress=False) for seed in seeds for a in ACTIONS}
     out = {}
-    for (seed, a, name), (data_config, model_config, field_config, eval_config) in calls.items():
-        dataset = data.synthesize(data_config, progress=False)
-        out[(seed, a, name)] = evaluation.guidance_alpha_sweep(dataset, model_config, field_config, eval_config,
+    for (seed, a, name), (_, model_config, field_config, eval_config) in calls.items():
+        out[(seed, a, name)] = evaluation.guidance_alpha_sweep(datasets[(seed, a)], model_config, field_config,
+                                                               eval_config,
                                                                alphas=tuple(sorted(tried[name])),
                                                                objective=VARIANTS[name][1], n_samples=n_samples)
     return out
-
-
-def pooled_medians(sweep_list):
-    """``{α: median skeleton distance}`` over every sweep given, pooled."""
-    return {alpha: float(np.median(np.concatenate([s.scores[alpha].skeleton_distance for s in sweep_list])))
-            for alpha in sweep_list[0].alphas}
 
 
 def next_alpha(tried, best, grid):
@@ -137,10 +131,10 @@ def main(argv=None):
         table = {}
         for seed in args.seeds:
             for a in ACTIONS:
-                table[(f"seed {seed}", a)] = pooled_medians([results[(seed, a, name)]])
-            table[(f"seed {seed}", "pooled")] = pooled_medians([results[(seed, a, name)] for a in ACTIONS])
+                table[(f"seed {seed}", a)] = evaluation.pooled_skeleton_medians([results[(seed, a, name)]])
+            table[(f"seed {seed}", "pooled")] = evaluation.pooled_skeleton_medians([results[(seed, a, name)] for a in ACTIONS])
         every = [results[(seed, a, name)] for seed in args.seeds for a in ACTIONS]
-        table[("all seeds", "pooled")] = pooled_medians(every)
+        table[("all seeds", "pooled")] = evaluation.pooled_skeleton_medians(every)
         table = pd.DataFrame(table)
         table.index.name = "α"
         alphas = sorted(tried[name])

@@ -51,6 +51,7 @@ __all__ = [
     "ALPHA_GRID",
     "AlphaSweep",
     "guidance_alpha_sweep",
+    "pooled_skeleton_medians",
     "build_alpha_sweep",
     "chosen_alpha",
     "build_table1",
@@ -464,8 +465,8 @@ class AlphaSweep:
 
     Attributes:
         alphas: the step sizes tried.
-        scores: ``{α: MotionScores}`` of the one guided sample per training condition.
-        objective: ``{α: (C,)}`` each sample's final guidance objective (m²).
+        scores: ``{α: MotionScores}`` of the kept sample per training condition.
+        objective: ``{α: (C,)}`` each kept sample's final guidance objective (m²).
         guide_last_step: whether the last denoising step was guided too.
         n_samples: candidates per condition, N (the best by the objective kept).
     """
@@ -554,12 +555,17 @@ def build_alpha_sweep(data_config, model_config, field_config, config: Optional[
     guidance_alpha_sweep(dataset, model_config, field_config, config, **kwargs)
 
 
-def chosen_alpha(sweeps: Sequence[AlphaSweep]) -> float:
-    """The α whose samples end closest to the training anchors: the lowest median skeleton distance over
-    the training conditions of every sweep given (e.g. sit and lift), pooled. Ties go to the smaller α."""
+def pooled_skeleton_medians(sweeps: Sequence[AlphaSweep]) -> dict:
+    """``{α: median skeleton distance (m)}`` over the training conditions of every sweep given, pooled."""
     sweeps = list(sweeps)
     if not sweeps or any(s.alphas != sweeps[0].alphas for s in sweeps):
         raise ValueError("sweeps: expected at least one AlphaSweep, all over the same alphas")
-    pooled = {alpha: float(np.median(np.concatenate([s.scores[alpha].skeleton_distance for s in sweeps])))
-              for alpha in sweeps[0].alphas}
-    return min(sweeps[0].alphas, key=lambda alpha: (pooled[alpha], alpha))
+    return {alpha: float(np.median(np.concatenate([s.scores[alpha].skeleton_distance for s in sweeps])))
+            for alpha in sweeps[0].alphas}
+
+
+def chosen_alpha(sweeps: Sequence[AlphaSweep]) -> float:
+    """The α whose samples end closest to the training anchors: the lowest median skeleton distance over
+    the training conditions of every sweep given (e.g. sit and lift), pooled. Ties go to the smaller α."""
+    pooled = pooled_skeleton_medians(sweeps)
+    return min(pooled, key=lambda alpha: (pooled[alpha], alpha))
