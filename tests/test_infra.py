@@ -693,6 +693,38 @@ def test_warm_cache_builds_missing_artifacts_in_parallel(isolated_cache):
     assert {p: p.stat().st_mtime_ns for p in isolated_cache.glob("*.pt")} == stamps
 
 
+def test_in_order_runs_a_chain_in_one_worker_after_each_other(isolated_cache):
+    import functools
+    import pickle
+
+    from hoi_tutorial.infra import in_order, warm_cache
+
+    # Two chains of two one-second builds each on two cores: each chain's builds in one process, in order.
+    chains = [in_order(functools.partial(_build_slow_pid, f"chain{c}a"), functools.partial(_build_slow_pid, f"chain{c}b"))
+              for c in range(2)]
+    pickle.dumps(chains[0])  # a worker receives it by pickle
+    warm_cache(chains, workers=2)
+    pids = {c: [int(_build_slow_pid(f"chain{c}{part}")) for part in "ab"] for c in range(2)}
+    assert all(len(set(p)) == 1 for p in pids.values()), pids      # a chain stays in its process
+    assert pids[0][0] != pids[1][0], pids                            # and the two chains ran side by side
+    first, second = (isolated_cache.glob(f"chain0{part}-*.pt") for part in "ab")
+    assert next(first).stat().st_mtime_ns <= next(second).stat().st_mtime_ns   # a before b
+    # A chain whose first part is cached and second is not is still missing: it runs (and loads its first part).
+    for path in isolated_cache.glob("chain1b-*.pt"):
+        path.unlink()
+    warm_cache(chains, workers=2)
+    assert len(list(isolated_cache.glob("chain1b-*.pt"))) == 1
+
+
+def test_in_order_refuses_what_it_cannot_run():
+    from hoi_tutorial.infra import in_order
+
+    with pytest.raises(ValueError, match="at least one"):
+        in_order()
+    with pytest.raises(TypeError, match=r"calls\[1\]: expected a callable, got int"):
+        in_order(print, 3)
+
+
 def _build_slow_pid(name):
     # A build that takes a second and records which process made it.
     def build():

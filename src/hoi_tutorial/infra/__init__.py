@@ -15,7 +15,7 @@ from .cache import (
 )
 from .device import choose_device, one_thread, single_threaded, threads_allowed
 from .pack import PackMismatchError, make_pack, read_manifest, release_pack_url, unpack, use_pretrained
-from .parallel import available_cores, warm_cache
+from .parallel import available_cores, in_order, warm_cache
 from .progress import progress_enabled, show_progress
 from .presets import SCALES, by_scale, check_scale, scaled_config
 from .seeding import check_seed, rng, seed_everything
@@ -27,7 +27,7 @@ from .training import (TrainedModel, TrainerConfig, TrainResult, learning_rate_f
 __all__ = [
     "SCALES", "by_scale", "check_scale", "scaled_config",
     "check_seed", "rng", "seed_everything",
-    "choose_device", "one_thread", "single_threaded", "threads_allowed", "available_cores", "warm_cache",
+    "choose_device", "one_thread", "single_threaded", "threads_allowed", "available_cores", "in_order", "warm_cache",
     "CacheStoreWarning", "CorruptArtifactWarning", "NotCachedError", "cache_only", "artifact_key", "artifact_path",
     "cache_dir", "clear_cache", "prune_cache", "load_or_build", "state_dict_to_cpu", "source_digest",
     "TrainerConfig", "TrainResult", "TrainedModel", "trainer_config", "learning_rate_factor", "move_to_device", "train",

@@ -24,7 +24,7 @@ from typing import Callable, Optional, Sequence
 from . import progress
 from .cache import NotCachedError, cache_only
 
-__all__ = ["available_cores", "warm_cache"]
+__all__ = ["available_cores", "in_order", "warm_cache"]
 
 
 def available_cores() -> int:
@@ -33,6 +33,34 @@ def available_cores() -> int:
         return len(os.sched_getaffinity(0))
     except (AttributeError, OSError):  # macOS and Windows have no affinity call
         return os.cpu_count() or 1
+
+
+class in_order:  # noqa: N801 - read as a function: ``warm_cache([in_order(train, use), ...])``
+    """Several builds as one call, run one after the other: for :func:`warm_cache`, where a build needs
+    another's artifact (runs that use a field after the field's training).
+
+    Without it a chapter waits until every call of one :func:`warm_cache` is done before it starts the calls
+    that depend on them, so a core that finished early idles; with one ``in_order`` per chain (one per action,
+    say) each core goes on with its own chain.
+
+    Args:
+        *calls: zero-argument callables (picklable, as :func:`warm_cache` asks), run in this order.
+    """
+
+    def __init__(self, *calls: Callable[[], object]):
+        if not calls:
+            raise ValueError("calls: expected at least one callable")
+        for index, call in enumerate(calls):
+            if not callable(call):
+                raise TypeError(f"calls[{index}]: expected a callable, got {type(call).__name__}")
+        self.calls = calls
+
+    def __call__(self) -> None:
+        for call in self.calls:
+            call()
+
+    def __repr__(self) -> str:
+        return f"in_order({', '.join(_describe(call) for call in self.calls)})"
 
 
 def _run(call: Callable[[], object]) -> tuple[str, float]:
@@ -51,6 +79,8 @@ def _run(call: Callable[[], object]) -> tuple[str, float]:
 
 def _describe(call: Callable[[], object]) -> str:
     """A build's name for progress lines: ``module.function`` of the call (of a partial's function)."""
+    if isinstance(call, in_order):
+        return " then ".join(_describe(part) for part in call.calls)
     function = getattr(call, "func", call)
     name = getattr(function, "__name__", type(function).__name__)
     return f"{(function.__module__ or '').rsplit('.', 1)[-1]}.{name}"
