@@ -42,7 +42,7 @@ endif
 HYPOTHESIS_PROFILE ?= ci
 export HYPOTHESIS_PROFILE
 
-.PHONY: venv lock test unit-test unit-test-other-kernels test-fresh book bench artifacts colab-check clean strip \
+.PHONY: venv lock lock-pythons test unit-test unit-test-other-kernels test-fresh book bench artifacts colab-check clean strip \
 	prune-cache
 
 venv: $(STAMP)
@@ -55,8 +55,15 @@ $(STAMP): requirements.txt pyproject.toml $(LOCK)
 		$(PY) -m pip install "$(TORCH_SPEC)" $(if $(TORCH_INDEX_URL),--extra-index-url $(TORCH_INDEX_URL)); \
 	fi
 	@lock="$(LOCK)"; minor=$$($(PY) -c 'import sys; print("%d.%d" % sys.version_info[:2])'); \
+	hashed="locks/py$$minor-manylinux_x86_64.txt"; \
 	if [ -n "$$lock" ] && ! grep -q "^# Python $$minor\." "$$lock"; then \
-		echo "$$lock was resolved on another Python than $$minor: installing requirements.txt's lower bounds"; lock=""; \
+		if [ "$$(uname -sm)" = "Linux x86_64" ] && [ -f "$$hashed" ]; then \
+			echo "$$lock was resolved on another Python than $$minor: installing $$hashed, hash-checked"; \
+			$(PY) -m pip install --require-hashes -r "$$hashed" || exit 1; \
+		else \
+			echo "$$lock was resolved on another Python than $$minor: installing requirements.txt's lower bounds"; \
+		fi; \
+		lock=""; \
 	fi; \
 	echo "$(PY) -m pip install -r requirements.txt $${lock:+-c $$lock}"; \
 	$(PY) -m pip install -r requirements.txt $${lock:+-c $$lock}
@@ -67,6 +74,11 @@ $(STAMP): requirements.txt pyproject.toml $(LOCK)
 # Regenerate requirements.lock from requirements.txt in a fresh environment (scripts/lock_requirements.sh).
 lock:
 	PYTHON3=$(PYTHON3) TORCH_SPEC="$(TORCH_SPEC)" TORCH_INDEX_URL="$(TORCH_INDEX_URL)" bash scripts/lock_requirements.sh
+
+# Resolve requirements.txt for Python 3.10-3.13 on manylinux x86_64 (Colab's platform) and write locks/, one hashed
+# lock per Python (scripts/lock_pythons.py: pip resolves for a Python it does not run on; needs the package index).
+lock-pythons:
+	$(PY) scripts/lock_pythons.py
 
 # Unit tests, then every chapter executed as a test with nbval in lax mode (a cell fails on an
 # exception or a failed assert). pytest exits with 5 when it collects no tests: not a failure.

@@ -204,3 +204,50 @@ def test_artifact_keys_are_the_same_in_a_fresh_process():
     out = subprocess.run([sys.executable, "-c", _KEYS_SCRIPT.format(path=[here] + sys.path)],
                          capture_output=True, text=True, env=env, check=True)
     assert json.loads(out.stdout.strip().splitlines()[-1]) == artifact_keys()
+
+
+# Ranges checked where a configuration is made (Readers III): a bad rate, probability or scale is refused with its
+# name and the range expected, not minutes later inside training (or never).
+RANGE_CASES = [
+    (motion_model, "motion_model_config", "lr", -1.0, r"lr: expected a finite number > 0, got -1.0"),
+    (motion_model, "motion_model_config", "dropout", 1.5, r"dropout: expected a number in \[0, 1\), got 1.5"),
+    (motion_model, "motion_model_config", "guidance_scale", float("nan"), r"guidance_scale: expected a finite number"),
+    (motion_model, "motion_model_config", "grad_clip", 0.0, r"grad_clip: expected a finite number > 0 or None"),
+    (interaction_field, "interaction_field_config", "weight_decay", -0.1, r"weight_decay: expected a finite number >= 0"),
+    (interaction_field, "interaction_field_config", "dropout", 1.0, r"dropout: expected a number in \[0, 1\)"),
+    (baselines, "cond_vae_config", "kl_weight", float("inf"), r"kl_weight: expected a finite number >= 0"),
+    (motion_prior, "prior_config", "own_prediction_max", 1.5, r"own_prediction_max: expected a number in \[0, 1\]"),
+    (trajectories, "trajectory_model_config", "lr", 0.0, r"lr: expected a finite number > 0"),
+    (toy2d, "toy2d_config", "p_uncond", -0.1, r"p_uncond: expected a number in \[0, 1\]"),
+    (goalnet, "goalnet_config", "lr", "1e-3", r"lr: expected a finite number > 0, got '1e-3'"),
+    (motionnet, "motionnet_config", "kl_weight", -1.0, r"kl_weight: expected a finite number >= 0"),
+    (intp, "planner_config", "near_share", 2.0, r"near_share: expected a number in \[0, 1\]"),
+    (choice_baselines, "diffusion_policy_config", "reach", 0.0, r"reach: expected a finite number > 0"),
+    (environment, "environment_config", "truncation", -0.4, r"truncation: expected a finite number > 0"),
+    (phase, "phase_config", "weight_decay", -1e-4, r"weight_decay: expected a finite number >= 0"),
+    (network, "controller_config", "phase_dropout", 1.0, r"phase_dropout: expected a number in \[0, 1\)"),
+    (network, "controller_config", "lr", True, r"lr: expected a finite number > 0, got True"),
+]
+
+
+@pytest.mark.parametrize("module, factory, field, value, message", RANGE_CASES,
+                         ids=[f"{factory}-{field}" for _, factory, field, _, _ in RANGE_CASES])
+def test_a_value_out_of_range_is_refused_by_name(module, factory, field, value, message):
+    make = getattr(module, factory)
+    args = ("sit",) if factory in ("motion_model_config", "interaction_field_config", "cond_vae_config") else ()
+    make(*args, "toy")  # the preset itself passes
+    with pytest.raises(ValueError, match=message):
+        make(*args, "toy", **{field: value})
+
+
+def test_the_trainer_and_the_phase_filter_check_their_ranges():
+    from hoi_tutorial.choice.controller import kalman
+    from hoi_tutorial.infra import TrainerConfig
+
+    with pytest.raises(ValueError, match=r"lr: expected a finite number > 0, got -1"):
+        TrainerConfig(steps=1, batch_size=1, lr=-1)
+    with pytest.raises(ValueError, match=r"phase_blend: expected a number in \[0, 1\]"):
+        kalman.PhaseFilterConfig(phase_blend=1.5)
+    with pytest.raises(ValueError, match=r"body_width: expected a finite number > 0 or None"):
+        kalman.PhaseFilterConfig(body_width=-1.0)
+    kalman.PhaseFilterConfig(body_width=None)

@@ -225,3 +225,14 @@ def test_samp_fd_features():
     goal_dirs = features[:, F.SAMP_FD_LAYOUT["goal_trajectory_directions"]].reshape(25, 7, 2)
     torch.testing.assert_close(goal_traj[-1, 3], torch.zeros(2), atol=1e-5, rtol=1e-5)
     torch.testing.assert_close(goal_dirs[-1, 3], torch.tensor([0.0, 1.0]), atol=1e-5, rtol=1e-5)
+
+
+@pytest.mark.parametrize("name", ["local_rotations", "root_position", "betas"])
+def test_a_motion_refuses_non_finite_values_by_name(name):
+    # A NaN root or rotation would reach every metric and figure unnoticed: refused where the Motion is made.
+    values = {"local_rotations": torch.eye(3).expand(4, NUM_JOINTS, 3, 3).clone(),
+              "root_position": torch.zeros(4, 3), "betas": torch.zeros(NUM_BETAS)}
+    Motion(**values)
+    values[name].view(-1)[0] = float("nan")
+    with pytest.raises(ValueError, match=f"{name}: expected finite values"):
+        Motion(**values)

@@ -6,7 +6,7 @@ from typing import Iterable, Sequence
 import numpy as np
 import torch
 
-__all__ = ["check_shape", "check_choice", "as_tensor", "check_finite"]
+__all__ = ["check_shape", "check_choice", "as_tensor", "check_finite", "check_positive_ints", "check_numbers"]
 
 
 def _fmt(shape: Sequence) -> str:
@@ -73,3 +73,35 @@ def check_positive_ints(owner, names: Iterable[str]) -> None:
         value = getattr(owner, name)
         if not isinstance(value, int) or isinstance(value, bool) or value < 1:
             raise ValueError(f"{name}: expected a positive int, got {value!r}")
+
+
+def _range_text(above, at_least, below, at_most) -> str:
+    low = f"> {above}" if above is not None else f">= {at_least}" if at_least is not None else None
+    high = f"< {below}" if below is not None else f"<= {at_most}" if at_most is not None else None
+    if low and high:
+        left = "(" if above is not None else "["
+        right = ")" if below is not None else "]"
+        lo = above if above is not None else at_least
+        hi = below if below is not None else at_most
+        return f"a number in {left}{lo}, {hi}{right}"
+    return "a finite number" + (f" {low or high}" if (low or high) else "")
+
+
+def check_numbers(owner, names: Iterable[str], *, above=None, at_least=None, below=None, at_most=None,
+                  allow_none: bool = False) -> None:
+    """Raise ``ValueError`` naming the first of ``owner``'s attributes ``names`` that is not a finite real
+    number in the range (``above`` / ``at_least`` bound it below, ``below`` / ``at_most`` above; a bool is not
+    a number here); ``None`` passes where ``allow_none``. The configuration dataclasses' range check, so a
+    learning rate of -1 or a dropout of 1.5 is refused where it is written, not minutes into training.
+    """
+    text = _range_text(above, at_least, below, at_most) + (" or None" if allow_none else "")
+    for name in names:
+        value = getattr(owner, name)
+        if value is None and allow_none:
+            continue
+        ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+        ok = ok and bool(np.isfinite(value))
+        ok = ok and (above is None or value > above) and (at_least is None or value >= at_least)
+        ok = ok and (below is None or value < below) and (at_most is None or value <= at_most)
+        if not ok:
+            raise ValueError(f"{name}: expected {text}, got {value!r}")

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Optional, Sequence
 
 import torch
-from .._validate import check_choice, check_positive_ints
+from .._validate import check_choice, check_numbers, check_positive_ints
 from .device import choose_device
 from .progress import progress_bar
 from .seeding import check_seed
@@ -75,6 +75,9 @@ class TrainerConfig:
     optimizer: str = "adamw"
 
     def __post_init__(self):
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("weight_decay",), at_least=0)
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_choice(self.lr_schedule, LR_SCHEDULES, "lr_schedule")
         check_choice(self.optimizer, OPTIMIZERS, "optimizer")
         check_positive_ints(self, ("steps", "batch_size", "log_every"))

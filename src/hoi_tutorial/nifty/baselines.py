@@ -26,7 +26,7 @@ from typing import Optional
 import torch
 from torch import nn
 
-from .._validate import check_choice, check_positive_ints, check_shape
+from .._validate import check_choice, check_numbers, check_positive_ints, check_shape
 from ..infra import (TrainedModel, TrainResult, load_or_build, scaled_config, single_threaded, state_dict_to_cpu,
                      train, trainer_config)
 from ..nn.cvae import gaussian_kl, reparameterize
@@ -85,6 +85,10 @@ class CondVAEConfig:
     seed: int = 0
 
     def __post_init__(self):
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("dropout",), at_least=0, below=1)
+        check_numbers(self, ("kl_weight",), at_least=0)
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_choice(self.action, ("sit", "lift"), "action")
         check_positive_ints(self, ("max_frames", "width", "layers", "heads", "latent", "n_points", "steps",
                                    "batch_size"))

@@ -41,7 +41,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from .._validate import as_tensor, check_choice, check_positive_ints, check_shape
+from .._validate import as_tensor, check_choice, check_numbers, check_positive_ints, check_shape
 from ..infra import (TrainedModel, TrainResult, load_or_build, scaled_config, single_threaded, state_dict_to_cpu,
                      train, trainer_config)
 from ..nn.diffusion import classifier_free_x0, q_sample
@@ -134,6 +134,10 @@ class InteractionFieldConfig:
     seed: int = 0
 
     def __post_init__(self):
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("dropout",), at_least=0, below=1)
+        check_numbers(self, ("augment_yaw_deg", "augment_shift", "weight_decay"), at_least=0)
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_choice(self.action, ("sit", "lift"), "action")
         check_choice(self.frame, FIELD_FRAMES, "frame")
         check_choice(self.output, FIELD_OUTPUTS, "output")

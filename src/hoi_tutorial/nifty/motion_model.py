@@ -43,7 +43,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from .._validate import as_tensor, check_choice, check_positive_ints, check_shape
+from .._validate import as_tensor, check_choice, check_numbers, check_positive_ints, check_shape
 from .. import metrics
 from ..infra import TrainedModel, TrainResult, load_or_build, single_threaded, state_dict_to_cpu, trainer_config
 from ..infra.presets import scaled_config
@@ -135,6 +135,10 @@ class MotionModelConfig:
     seed: int = 0
 
     def __post_init__(self):
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("dropout",), at_least=0, below=1)
+        check_numbers(self, ("guidance_scale",))
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_choice(self.action, ("sit", "lift"), "action")
         check_choice(self.lr_schedule, ("constant", "cosine"), "lr_schedule")
         check_positive_ints(self, ("max_frames", "width", "layers", "heads", "n_points", "diffusion_steps", "steps",

@@ -30,7 +30,7 @@ from typing import Optional, Sequence
 import torch
 from torch import nn
 
-from .._validate import check_shape
+from .._validate import check_numbers, check_shape
 from ..infra import TrainerConfig, single_threaded, train
 from ..infra.presets import scaled_config
 from ..nn.cvae import gaussian_kl
@@ -234,6 +234,11 @@ class PriorConfig:
     input_noise: float = 0.02
     leg_weight: float = 1000.0
     seed: int = 0
+
+    def __post_init__(self):
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("kl_weight", "input_noise", "leg_weight"), at_least=0)
+        check_numbers(self, ("own_prediction_max",), at_least=0, at_most=1)
 
 
 # What the larger scales change from the defaults (the toy preset); ``paper`` uses HuMoR's sizes.

@@ -22,7 +22,7 @@ from typing import Callable
 import numpy as np
 import torch
 
-from .._validate import as_tensor, check_choice, check_shape
+from .._validate import as_tensor, check_choice, check_numbers, check_shape
 from ..infra.presets import scaled_config
 from ..infra.seeding import rng as make_rng
 from ..infra.device import single_threaded
@@ -318,6 +318,8 @@ class Toy2DConfig:
     fourier_scale: float = 0.5
 
     def __post_init__(self):
+        check_numbers(self, ("lr", "fourier_scale"), above=0)
+        check_numbers(self, ("p_uncond",), at_least=0, at_most=1)
         check_choice(self.distribution, TOY2D_DISTRIBUTIONS, "distribution")
         check_choice(self.schedule, ("cosine", "linear"), "schedule")
 

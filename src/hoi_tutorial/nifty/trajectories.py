@@ -26,7 +26,7 @@ from typing import Callable, Optional
 import numpy as np
 import torch
 
-from .._validate import as_tensor, check_shape
+from .._validate import as_tensor, check_numbers, check_shape
 from ..infra.presets import scaled_config
 from ..infra.seeding import rng as make_rng
 from ..infra.device import single_threaded
@@ -268,6 +268,9 @@ class TrajectoryModelConfig:
     def noise_schedule(self) -> NoiseSchedule:
         """The cosine schedule with ``diffusion_steps`` steps (MDM's and NIFTY's choice)."""
         return cosine_schedule(self.diffusion_steps)
+
+    def __post_init__(self):
+        check_numbers(self, ("lr",), above=0)
 
 
 # What the larger scales change from the defaults (the toy preset).

@@ -33,7 +33,7 @@ from typing import Optional
 import numpy as np
 import torch
 
-from .._validate import check_choice, check_positive_ints
+from .._validate import check_choice, check_numbers, check_positive_ints
 from ..infra import (TrainedModel, TrainResult, load_or_build, scaled_config, single_threaded, state_dict_to_cpu,
                      train, trainer_config)
 from ..metrics import goal_apd, goal_reconstruction_error
@@ -225,6 +225,9 @@ class GoalNetConfig:
     seed: int = 0
 
     def __post_init__(self):
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("kl_weight",), at_least=0)
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_positive_ints(self, ("interaction_out", "latent", "steps", "batch_size"))
         if not isinstance(self.kl_warmup, int) or self.kl_warmup < 0:
             raise ValueError(f"kl_warmup: expected an int >= 0 (steps), got {self.kl_warmup!r}")

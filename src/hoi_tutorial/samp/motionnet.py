@@ -45,7 +45,7 @@ from typing import Optional
 
 import torch
 
-from .._validate import check_choice, check_positive_ints
+from .._validate import check_choice, check_numbers, check_positive_ints
 from ..infra import (TrainedModel, TrainerConfig, TrainResult, load_or_build, scaled_config, single_threaded,
                      state_dict_to_cpu, train)
 from ..nn.cvae import gaussian_kl
@@ -163,6 +163,9 @@ class MotionNetConfig:
     seed: int = 0
 
     def __post_init__(self):
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("kl_weight",), at_least=0)
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_choice(self.model, MODEL_KINDS, "model")
         check_choice(self.own_inputs, OWN_INPUTS, "own_inputs")
         check_positive_ints(self, ("interaction_out", "prediction_hidden", "n_experts", "latent", "rollout", "epochs",

@@ -13,7 +13,7 @@ from typing import Optional
 import numpy as np
 import torch
 
-from .._validate import as_tensor, check_shape
+from .._validate import as_tensor, check_finite, check_shape
 from .kinematics import forward_kinematics
 from .rotations import rotation_about_z
 from .skeleton import NUM_BETAS, NUM_JOINTS, bone_offsets, joint_index
@@ -69,6 +69,8 @@ class Motion:
         T = self.local_rotations.shape[0]
         check_shape(self.root_position, (T, 3), "root_position")
         check_shape(self.betas, (NUM_BETAS,), "betas")
+        for name in ("local_rotations", "root_position", "betas"):  # a NaN would reach every metric unnoticed
+            check_finite(getattr(self, name), name)
         if self.actions is not None:
             self.actions = np.asarray(self.actions, dtype=np.int64)
             check_shape(self.actions, (T,), "actions")

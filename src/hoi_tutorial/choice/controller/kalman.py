@@ -58,7 +58,7 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from ..._validate import check_finite, check_shape
+from ..._validate import check_finite, check_numbers, check_shape
 from ...world.motion import FPS
 from ...world.skeleton import joint_index, rest_joint_positions
 
@@ -126,6 +126,10 @@ class PhaseFilterConfig:
     nearby_radius: float = 0.5
 
     def __post_init__(self):
+        check_numbers(self, ("dt", "amplitude_max", "nearby_radius"), above=0)
+        check_numbers(self, ("noise_scale", "rotation_weight"), at_least=0)
+        check_numbers(self, ("phase_blend",), at_least=0, at_most=1)
+        check_numbers(self, ("body_width",), above=0, allow_none=True)
         for name in ("dt", "amplitude_max", "noise_scale", "nearby_radius"):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or isinstance(value, bool) or not value > 0:

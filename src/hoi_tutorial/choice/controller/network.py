@@ -15,7 +15,7 @@ from typing import NamedTuple, Optional
 import torch
 from torch import nn
 
-from ..._validate import check_positive_ints, check_shape
+from ..._validate import check_numbers, check_positive_ints, check_shape
 from ...infra import TrainedModel, load_or_build, scaled_config, single_threaded, state_dict_to_cpu, train, trainer_config
 from ...nn.moe import MoEMLP
 from ...world import mocap
@@ -77,6 +77,10 @@ class ControllerConfig:
     seed: int = 0
 
     def __post_init__(self):
+        check_numbers(self, ("lr", "blend_radius"), above=0)
+        check_numbers(self, ("phase_noise", "key_noise"), at_least=0)
+        check_numbers(self, ("phase_dropout",), at_least=0, below=1)
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_positive_ints(self, ("clips", "hidden", "gating_hidden", "n_experts", "steps", "batch_size", "unroll"))
         if isinstance(self.unroll_steps, bool) or not isinstance(self.unroll_steps, int) \
                 or not 0 <= self.unroll_steps <= self.steps:

@@ -69,7 +69,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from ..._validate import check_positive_ints, check_shape
+from ..._validate import check_numbers, check_positive_ints, check_shape
 from ...infra import TrainedModel, load_or_build, scaled_config, single_threaded, state_dict_to_cpu, train, trainer_config
 from ...world import mocap
 from ...world.features import body_heading
@@ -132,6 +132,8 @@ class PhaseConfig:
     seed: int = 0
 
     def __post_init__(self):
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("weight_decay",), at_least=0)
         check_positive_ints(self, ("channels", "window_frames", "frame_step", "clips_per_kind", "steps",
                                    "batch_size"))
         _check_window_frames(self.window_frames)

@@ -48,7 +48,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from ..._validate import check_choice, check_finite, check_positive_ints, check_shape
+from ..._validate import check_choice, check_finite, check_numbers, check_positive_ints, check_shape
 from ...infra import (TrainedModel, check_scale, load_or_build, scaled_config, single_threaded, state_dict_to_cpu,
                      train, trainer_config)
 from ...world.kinematics import forward_kinematics
@@ -126,6 +126,7 @@ class EnvironmentConfig:
     seed: int = 0
 
     def __post_init__(self):
+        check_numbers(self, ("truncation", "lr"), above=0)
         check_positive_ints(self, ("n_kitchens", "latent", "steps", "batch_size"))
         if not isinstance(self.field, FieldConfig):
             raise TypeError(f"field: expected a FieldConfig (fields.field_config), got {type(self.field).__name__}")

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from ..._validate import check_positive_ints, check_shape
+from ..._validate import check_numbers, check_positive_ints, check_shape
 from ...infra import TrainedModel, load_or_build, scaled_config, single_threaded, state_dict_to_cpu, trainer_config
 from ...nn.denoisers import MLPDenoiser
 from ...nn.diffusion import cosine_schedule, sample, train_denoiser
@@ -143,6 +143,7 @@ class DiffusionPolicyConfig:
     seed: int = 0
 
     def __post_init__(self):
+        check_numbers(self, ("code_clip", "lr", "reach"), above=0)
         check_positive_ints(self, ("horizon", "action_steps", "diffusion_steps", "width", "depth", "pool", "steps",
                                    "batch_size", "max_frames"))
         if self.action_steps > self.horizon:

@@ -40,7 +40,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from ..._validate import check_positive_ints, check_shape
+from ..._validate import check_numbers, check_positive_ints, check_shape
 from ...infra import TrainedModel, load_or_build, scaled_config, single_threaded, state_dict_to_cpu, train, trainer_config
 from . import fields, interactions
 from .decoder import CHANNEL_SETS, FieldDecoder, channel_values
@@ -127,6 +127,10 @@ class PlannerConfig:
     seed: int = 0
 
     def __post_init__(self):
+        check_numbers(self, ("lr", "fit_lr", "max_time"), above=0)
+        check_numbers(self, ("code_sigma", "init_std", "prior_radius"), at_least=0)
+        check_numbers(self, ("near_share",), at_least=0, at_most=1)
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_positive_ints(self, ("latent", "width", "layers", "skip", "steps", "batch_size", "points",
                                    "fit_steps", "fit_points", "inits"))
         if tuple(self.channels) not in CHANNEL_SETS:
