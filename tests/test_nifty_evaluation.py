@@ -572,6 +572,29 @@ def test_chosen_alpha_is_the_lowest_pooled_median_skeleton_distance():
         evaluation.chosen_alpha([sit, sweep({10.0: [1.0]})])
 
 
+def test_chosen_alpha_over_seeds_takes_the_worst_seed():
+    def sweep(distances):
+        scores = {alpha: scoring.MotionScores(*(np.zeros(len(d)) for _ in range(3)), np.asarray(d, float),
+                                              *(np.zeros(len(d)) for _ in range(5)))
+                  for alpha, d in distances.items()}
+        return evaluation.AlphaSweep(alphas=tuple(distances), scores=scores,
+                                     objective={a: np.zeros(len(d)) for a, d in distances.items()},
+                                     guide_last_step=False)
+
+    # As measured for the offset field: seeds 1 and 2 end nearer at α = 100, seed 0 falls apart there. Pooled, the
+    # two carry the median to 100; by the worst seed, 30.
+    stable = sweep({30.0: [1.6, 1.6, 1.6], 100.0: [10.0, 10.1, 10.2]})
+    better = [sweep({30.0: [0.8, 0.8, 0.8], 100.0: [0.7, 0.7, 0.7]}) for _ in range(2)]
+    assert evaluation.chosen_alpha([stable, *better]) == 100.0
+    assert evaluation.chosen_alpha_over_seeds({0: [stable], 1: [better[0]], 2: [better[1]]}) == 30.0
+    # One seed: the same as chosen_alpha, its sweeps pooled
+    assert evaluation.chosen_alpha_over_seeds({1: better}) == evaluation.chosen_alpha(better) == 100.0
+    with pytest.raises(ValueError, match="at least one seed"):
+        evaluation.chosen_alpha_over_seeds({})
+    with pytest.raises(ValueError, match="same alphas"):
+        evaluation.chosen_alpha_over_seeds({0: [stable], 1: [sweep({10.0: [1.0]})]})
+
+
 def test_the_start_distance_read_from_the_root_is_final_pelvis_distance_bit_for_bit():
     # final_pelvis_distance reads the pelvis without forward kinematics: joint 0, the pelvis, sits at root_position;
     # the same floats as the pelvis of the motion's joints, whatever the dtypes

@@ -54,6 +54,7 @@ __all__ = [
     "pooled_skeleton_medians",
     "build_alpha_sweep",
     "chosen_alpha",
+    "chosen_alpha_over_seeds",
     "build_table1",
 ]
 
@@ -569,3 +570,24 @@ def chosen_alpha(sweeps: Sequence[AlphaSweep]) -> float:
     the training conditions of every sweep given (e.g. sit and lift), pooled. Ties go to the smaller α."""
     pooled = pooled_skeleton_medians(sweeps)
     return min(pooled, key=lambda alpha: (pooled[alpha], alpha))
+
+
+def chosen_alpha_over_seeds(sweeps_by_seed: dict) -> float:
+    """The α chosen over several seeds by the worst of them: for each α, each seed's median skeleton distance
+    (its sweeps, e.g. sit and lift, pooled), the largest over the seeds; the α whose largest is lowest. Ties go
+    to the smaller α. With one seed it is :func:`chosen_alpha`.
+
+    Ours (NIFTY states no α). One α serves every seed a reader may type, and a seed whose samples fall apart at
+    an α a pooled median would still prefer (the others' samples carrying the median) is what a reader meets:
+    the worst seed guards against it.
+
+    Args:
+        sweeps_by_seed: ``{seed: [AlphaSweep, ...]}``, every sweep over the same alphas.
+    """
+    if not sweeps_by_seed:
+        raise ValueError("sweeps_by_seed: expected at least one seed's sweeps")
+    per_seed = [pooled_skeleton_medians(sweeps) for sweeps in sweeps_by_seed.values()]
+    if any(set(medians) != set(per_seed[0]) for medians in per_seed):
+        raise ValueError("sweeps_by_seed: expected every seed's sweeps over the same alphas")
+    worst = {alpha: max(medians[alpha] for medians in per_seed) for alpha in per_seed[0]}
+    return min(worst, key=lambda alpha: (worst[alpha], alpha))
