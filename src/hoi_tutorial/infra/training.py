@@ -75,22 +75,16 @@ class TrainerConfig:
     optimizer: str = "adamw"
 
     def __post_init__(self):
-        check_numbers(self, ("lr",), above=0)
-        check_numbers(self, ("weight_decay",), at_least=0)
-        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_choice(self.lr_schedule, LR_SCHEDULES, "lr_schedule")
         check_choice(self.optimizer, OPTIMIZERS, "optimizer")
         check_positive_ints(self, ("steps", "batch_size", "log_every"))
         if not isinstance(self.warmup_steps, int) or not 0 <= self.warmup_steps <= self.steps:
             raise ValueError(f"warmup_steps: expected an int in [0, steps={self.steps}], "
                              f"got {self.warmup_steps!r}")
-        if not self.lr > 0:
-            raise ValueError(f"lr: expected a positive number, got {self.lr!r}")
-        if not self.weight_decay >= 0:
-            raise ValueError(f"weight_decay: expected a number >= 0, got {self.weight_decay!r}")
-        if self.grad_clip is not None and not self.grad_clip > 0:
-            raise ValueError(f"grad_clip: expected None or a positive number, got {self.grad_clip!r}")
         check_seed(self.seed, "seed")
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("weight_decay",), at_least=0)
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
 
 
 @dataclass

@@ -134,10 +134,6 @@ class InteractionFieldConfig:
     seed: int = 0
 
     def __post_init__(self):
-        check_numbers(self, ("lr",), above=0)
-        check_numbers(self, ("dropout",), at_least=0, below=1)
-        check_numbers(self, ("augment_yaw_deg", "augment_shift", "weight_decay"), at_least=0)
-        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_choice(self.action, ("sit", "lift"), "action")
         check_choice(self.frame, FIELD_FRAMES, "frame")
         check_choice(self.output, FIELD_OUTPUTS, "output")
@@ -149,6 +145,10 @@ class InteractionFieldConfig:
             raise ValueError(f"width: expected a multiple of heads={self.heads}, got {self.width}")
         if not 0.0 <= self.augment_fraction <= 1.0:
             raise ValueError(f"augment_fraction: expected a probability in [0, 1], got {self.augment_fraction!r}")
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("dropout",), at_least=0, below=1)
+        check_numbers(self, ("augment_yaw_deg", "augment_shift", "weight_decay"), at_least=0)
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
 
 def field_variant(config: InteractionFieldConfig) -> str:
     """The field's form, as ``guidance.GUIDANCE_ALPHA`` names it: ``"offset"`` (NIFTY),

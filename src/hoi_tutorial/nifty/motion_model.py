@@ -135,10 +135,6 @@ class MotionModelConfig:
     seed: int = 0
 
     def __post_init__(self):
-        check_numbers(self, ("lr",), above=0)
-        check_numbers(self, ("dropout",), at_least=0, below=1)
-        check_numbers(self, ("guidance_scale",))
-        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_choice(self.action, ("sit", "lift"), "action")
         check_choice(self.lr_schedule, ("constant", "cosine"), "lr_schedule")
         check_positive_ints(self, ("max_frames", "width", "layers", "heads", "n_points", "diffusion_steps", "steps",
@@ -149,6 +145,10 @@ class MotionModelConfig:
             raise ValueError(f"p_uncond: expected a probability in [0, 1], got {self.p_uncond!r}")
         if self.diffusion_steps < 2:
             raise ValueError(f"diffusion_steps: expected at least 2, got {self.diffusion_steps}")
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("dropout",), at_least=0, below=1)
+        check_numbers(self, ("guidance_scale",))
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
 
     def noise_schedule(self) -> NoiseSchedule:
         """The cosine schedule with ``diffusion_steps`` steps (MDM's and NIFTY's)."""

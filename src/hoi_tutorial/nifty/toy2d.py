@@ -318,10 +318,10 @@ class Toy2DConfig:
     fourier_scale: float = 0.5
 
     def __post_init__(self):
-        check_numbers(self, ("lr", "fourier_scale"), above=0)
-        check_numbers(self, ("p_uncond",), at_least=0, at_most=1)
         check_choice(self.distribution, TOY2D_DISTRIBUTIONS, "distribution")
         check_choice(self.schedule, ("cosine", "linear"), "schedule")
+        check_numbers(self, ("lr", "fourier_scale"), above=0)
+        check_numbers(self, ("p_uncond",), at_least=0, at_most=1)
 
     def noise_schedule(self) -> NoiseSchedule:
         """The ``diffusion_steps``-step noise schedule named by ``schedule``."""

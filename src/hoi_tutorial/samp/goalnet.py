@@ -225,14 +225,12 @@ class GoalNetConfig:
     seed: int = 0
 
     def __post_init__(self):
-        check_numbers(self, ("lr",), above=0)
-        check_numbers(self, ("kl_weight",), at_least=0)
-        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_positive_ints(self, ("interaction_out", "latent", "steps", "batch_size"))
         if not isinstance(self.kl_warmup, int) or self.kl_warmup < 0:
             raise ValueError(f"kl_warmup: expected an int >= 0 (steps), got {self.kl_warmup!r}")
-        if not self.kl_weight >= 0:
-            raise ValueError(f"kl_weight: expected a number >= 0, got {self.kl_weight!r}")
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("kl_weight",), at_least=0)
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
 
 
 # 100 epochs of ~13K samples (SAMP Appendix B.2) at a batch of 64 is ~20K steps.

@@ -163,9 +163,6 @@ class MotionNetConfig:
     seed: int = 0
 
     def __post_init__(self):
-        check_numbers(self, ("lr",), above=0)
-        check_numbers(self, ("kl_weight",), at_least=0)
-        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_choice(self.model, MODEL_KINDS, "model")
         check_choice(self.own_inputs, OWN_INPUTS, "own_inputs")
         check_positive_ints(self, ("interaction_out", "prediction_hidden", "n_experts", "latent", "rollout", "epochs",
@@ -173,8 +170,9 @@ class MotionNetConfig:
         if self.steps is not None and (not isinstance(self.steps, int) or isinstance(self.steps, bool) or self.steps < 1):
             raise ValueError(f"steps: expected a positive int or None (epochs of the data), got {self.steps!r}")
         teacher_forcing_probability(0, self.c1, self.c2)  # validates C1 < C2
-        if not self.kl_weight >= 0:
-            raise ValueError(f"kl_weight: expected a number >= 0, got {self.kl_weight!r}")
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("kl_weight",), at_least=0)
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
 
 
 # The presets. Every one takes one optimiser step per window of L frames (windows overlapping by L/2), where SAMP's

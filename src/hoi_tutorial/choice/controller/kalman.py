@@ -126,10 +126,6 @@ class PhaseFilterConfig:
     nearby_radius: float = 0.5
 
     def __post_init__(self):
-        check_numbers(self, ("dt", "amplitude_max", "nearby_radius"), above=0)
-        check_numbers(self, ("noise_scale", "rotation_weight"), at_least=0)
-        check_numbers(self, ("phase_blend",), at_least=0, at_most=1)
-        check_numbers(self, ("body_width",), above=0, allow_none=True)
         for name in ("dt", "amplitude_max", "noise_scale", "nearby_radius"):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or isinstance(value, bool) or not value > 0:
@@ -140,6 +136,9 @@ class PhaseFilterConfig:
             raise ValueError(f"rotation_weight: expected α of Eq. 22 >= 0, got {self.rotation_weight!r}")
         if self.body_width is not None and not self.body_width > 0:
             raise ValueError(f"body_width: expected a positive number of metres or None, got {self.body_width!r}")
+        check_numbers(self, ("rotation_weight",), at_least=0)
+        check_numbers(self, ("phase_blend",), at_least=0, at_most=1)
+        check_numbers(self, ("body_width",), above=0, allow_none=True)
 
     @property
     def frequency_max(self) -> float:

@@ -77,17 +77,10 @@ class ControllerConfig:
     seed: int = 0
 
     def __post_init__(self):
-        check_numbers(self, ("lr", "blend_radius"), above=0)
-        check_numbers(self, ("phase_noise", "key_noise"), at_least=0)
-        check_numbers(self, ("phase_dropout",), at_least=0, below=1)
-        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_positive_ints(self, ("clips", "hidden", "gating_hidden", "n_experts", "steps", "batch_size", "unroll"))
         if isinstance(self.unroll_steps, bool) or not isinstance(self.unroll_steps, int) \
                 or not 0 <= self.unroll_steps <= self.steps:
             raise ValueError(f"unroll_steps: expected an int in [0, steps={self.steps}], got {self.unroll_steps!r}")
-        for name in ("lr", "blend_radius"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name}: expected a positive number, got {getattr(self, name)!r}")
         for name in ("phase_noise", "key_noise"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name}: expected a standard deviation >= 0, got {getattr(self, name)!r}")
@@ -99,6 +92,10 @@ class ControllerConfig:
         if isinstance(kinds, str) or not isinstance(kinds, tuple) or not kinds or len(set(kinds)) < len(kinds) \
                 or not all(k in CLIP_KINDS for k in kinds):
             raise ValueError(f"kinds: expected a tuple of distinct names from {CLIP_KINDS}, got {kinds!r}")
+        check_numbers(self, ("lr", "blend_radius"), above=0)
+        check_numbers(self, ("phase_noise", "key_noise"), at_least=0)
+        check_numbers(self, ("phase_dropout",), at_least=0, below=1)
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
 
 
 # CHOICE §8.1: gating 3 x 128, main network 3 x 512, 150 epochs over 70 % of ~150 x 3 min at 60 fps.

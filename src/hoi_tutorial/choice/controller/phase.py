@@ -132,18 +132,14 @@ class PhaseConfig:
     seed: int = 0
 
     def __post_init__(self):
-        check_numbers(self, ("lr",), above=0)
-        check_numbers(self, ("weight_decay",), at_least=0)
         check_positive_ints(self, ("channels", "window_frames", "frame_step", "clips_per_kind", "steps",
                                    "batch_size"))
         _check_window_frames(self.window_frames)
         if not self.kinds or any(kind not in mocap.ACTION_GENERATORS for kind in self.kinds):
             raise ValueError(f"kinds: expected a non-empty tuple of names from {sorted(mocap.ACTION_GENERATORS)}, "
                              f"got {self.kinds!r}")
-        if not self.lr > 0:
-            raise ValueError(f"lr: expected a positive number, got {self.lr!r}")
-        if not self.weight_decay >= 0:
-            raise ValueError(f"weight_decay: expected a number >= 0, got {self.weight_decay!r}")
+        check_numbers(self, ("lr",), above=0)
+        check_numbers(self, ("weight_decay",), at_least=0)
 
 
 # DeepPhase / CHOICE §8.1: 8 channels, 2 s windows, 120 epochs; 400 toy clips of ~190 frames are ~76 000

@@ -126,7 +126,6 @@ class EnvironmentConfig:
     seed: int = 0
 
     def __post_init__(self):
-        check_numbers(self, ("truncation", "lr"), above=0)
         check_positive_ints(self, ("n_kitchens", "latent", "steps", "batch_size"))
         if not isinstance(self.field, FieldConfig):
             raise TypeError(f"field: expected a FieldConfig (fields.field_config), got {type(self.field).__name__}")
@@ -134,9 +133,7 @@ class EnvironmentConfig:
             raise ValueError(f"field: expected extent / spacing divisible by 8 (three poolings), got {self.cells} cells")
         if len(self.channels) != 3 or not all(isinstance(c, int) and c > 0 for c in self.channels):
             raise ValueError(f"channels: expected three positive ints (CHOICE's three layers), got {self.channels!r}")
-        for name in ("truncation", "lr"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name}: expected a positive number, got {getattr(self, name)!r}")
+        check_numbers(self, ("truncation", "lr"), above=0)
 
     @property
     def cells(self) -> int:

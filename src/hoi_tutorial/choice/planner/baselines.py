@@ -143,14 +143,11 @@ class DiffusionPolicyConfig:
     seed: int = 0
 
     def __post_init__(self):
-        check_numbers(self, ("code_clip", "lr", "reach"), above=0)
         check_positive_ints(self, ("horizon", "action_steps", "diffusion_steps", "width", "depth", "pool", "steps",
                                    "batch_size", "max_frames"))
         if self.action_steps > self.horizon:
             raise ValueError(f"action_steps: expected at most horizon={self.horizon}, got {self.action_steps}")
-        for name in ("code_clip", "lr", "reach"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name}: expected a positive number, got {getattr(self, name)!r}")
+        check_numbers(self, ("code_clip", "lr", "reach"), above=0)
 
 
 # Chi et al.: K = 100 DDPM steps; CHOICE trained it for 6000 epochs.

@@ -127,20 +127,16 @@ class PlannerConfig:
     seed: int = 0
 
     def __post_init__(self):
-        check_numbers(self, ("lr", "fit_lr", "max_time"), above=0)
-        check_numbers(self, ("code_sigma", "init_std", "prior_radius"), at_least=0)
-        check_numbers(self, ("near_share",), at_least=0, at_most=1)
-        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
         check_positive_ints(self, ("latent", "width", "layers", "skip", "steps", "batch_size", "points",
                                    "fit_steps", "fit_points", "inits"))
         if tuple(self.channels) not in CHANNEL_SETS:
             raise ValueError(f"channels: expected one of {[list(c) for c in CHANNEL_SETS]} (CHOICE's three fields "
                              f"and the 2-channel ablations of §8.2.3), got {self.channels!r}")
-        for name in ("code_sigma", "fit_lr", "init_std", "prior_radius", "max_time", "lr"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name}: expected a positive number, got {getattr(self, name)!r}")
         if not 0 <= self.near_share < 1:
             raise ValueError(f"near_share: expected a fraction in [0, 1), got {self.near_share!r}")
+        check_numbers(self, ("code_sigma", "fit_lr", "init_std", "prior_radius", "max_time", "lr"), above=0)
+        check_numbers(self, ("near_share",), at_least=0, at_most=1)
+        check_numbers(self, ("grad_clip",), above=0, allow_none=True)
 
 
 # CHOICE §8.1: z of 128, 6 x 256; 300 epochs of 5546 interactions x 32^3 cells.
