@@ -104,14 +104,22 @@ def test_rollout_moves_the_wrist_toward_the_goal(trained, start, clips):
     assert bool((final < (still - target).norm(dim=-1)).all())
 
 
+def _matched_goal_phases(model, goal, frames):
+    """(frames + 1, B, C, 3) the matched goal phase of each step of a rollout, by the goal-phase model."""
+    keyframe = kalman.constrain(goal.phase.double().numpy(), runtime.phase_filter_config(model))
+    return np.stack([kalman.goal_phase_at(keyframe, goal.due.double().numpy()[:, None] - k, kalman.PhaseFilterConfig())
+                     for k in range(frames + 1)])
+
+
 def test_the_variants_differ_only_in_the_goal_phase(trained, start):
     state, goal = start
     runs = {v: runtime.rollout(trained.model, state, goal, 5, v) for v in features.VARIANTS}
     assert torch.equal(runs["none"].goal_phase, torch.zeros_like(runs["none"].goal_phase))
-    matched = features.goal_phase_features(goal.phase)
-    assert torch.allclose(runs["matched"].goal_phase, matched.expand_as(runs["matched"].goal_phase))
+    matched = features.goal_phase_features(_matched_goal_phases(trained.model, goal, 5)[:5])  # (5, B, 3C)
+    assert torch.allclose(runs["matched"].goal_phase, matched, atol=1e-6)
+    assert not torch.allclose(matched[0], matched[1], atol=1e-3)  # the goal phase advances frame by frame
     for v in ("predicted", "kalman"):
-        assert torch.allclose(runs[v].goal_phase[0], matched)  # both start from the matched phase
+        assert torch.allclose(runs[v].goal_phase[0], matched[0])  # both start from the matched phase
     pred = runs["predicted"]
     assert torch.allclose(pred.goal_phase[1:], features.goal_phase_features(pred.predicted_goal_phase[:-1]), atol=1e-5)
     # the same goal phase gives the same step whatever the variant's name
@@ -139,8 +147,8 @@ def test_the_kalman_goal_phase_is_filter_step_by_hand(trained, start):
     # A_max is the training data's largest amplitude; the matched phase enters bounded by it
     config, variance = runtime.phase_filter_config(trained.model), trained.model.phase_variance.double().numpy()
     assert config.amplitude_max == pytest.approx(float(trained.model.phase_amplitude_max))
-    matched = kalman.constrain(goal.phase.double().numpy(), config)
-    estimate, covariance = matched, np.zeros(tuple(goal.phase.shape) + (3,))
+    matched = _matched_goal_phases(trained.model, goal, 4)  # M_k, the matched keyframe carried to step k
+    estimate, covariance = matched[0], np.zeros(tuple(goal.phase.shape) + (3,))
     s = state
     for t in range(4):
         fed = features.goal_phase_features(estimate)
@@ -155,7 +163,7 @@ def test_the_kalman_goal_phase_is_filter_step_by_hand(trained, start):
         estimate, covariance = kalman.filter_step(estimate, covariance, variance,
                                                   out["goal_phase_state"].double().numpy(),
                                                   out["deviation"].double().numpy()[:, None], config,
-                                                  matched_goal=matched, use_matched=active[:, None])
+                                                  matched_goal=matched[t + 1], use_matched=active[:, None])
 
 
 def test_clear_errors(trained, start):
@@ -186,6 +194,12 @@ def test_clear_errors(trained, start):
         runtime.toward_goal(state, goal, speed=0.0)
     with pytest.raises(ValueError, match="clips: expected reach-and-grasp clips"):
         runtime.clip_goal(trained.model, mocap.generate_dataset(1, seed=0, kinds=("walk",)))
+    with pytest.raises(ValueError, match="goal.due: expected"):
+        runtime.rollout(trained.model, state, goal._replace(due=None), 3, "matched")
+    with pytest.raises(ValueError, match="goal.due: expected shape"):
+        runtime.rollout(trained.model, state, goal._replace(due=goal.due[:1]), 3, "kalman")
+    with pytest.raises(ValueError, match="frame: expected an int"):
+        runtime.clip_goal(trained.model, [], frame=1.5)
 
 
 def test_the_key_joint_trajectories_fed_back_are_the_next_frames_input(trained, clips, start):
@@ -405,3 +419,78 @@ def test_step_timing_times_the_step_and_the_network_and_leaves_the_model_as_it_w
     assert torch.equal(runtime.rollout(model, *start, 5, "kalman").joints, before)
     with pytest.raises(ValueError, match="steps: expected a positive int"):
         runtime.step_timing(model, *start, steps=0)
+
+
+# ----------------------------------------------------------------------------- one goal-phase model (§5.2)
+
+
+def _segments(clip):
+    """Frames t of ``features.clip_features``' rows whose next row has the same keyframe g (t < anchor or later)."""
+    anchor, T = int(clip.meta["anchor_frame"]), len(clip)
+    t = np.arange(T - 2)
+    return t[t != anchor]  # at t = anchor the keyframe of t + 1 switches to the clip's last frame
+
+
+def test_training_goal_phase_is_the_keyframe_carried_by_the_goal_phase_model(trained, clips):
+    """The goal phase input of frame t is the next keyframe's PAE phase state carried to t by
+    ``kalman.goal_phase_at``; the target ``P̂_g`` of frame t is the input of t + 1; and from one frame to the next
+    the goal phase moves exactly as the filter's Eq. 18 predicts it (F of Eq. 19), not held."""
+    model = trained.model
+    clip = clips[0]
+    x, y, states = features.clip_features(clip, model.phase_model)
+    fed = features.phase_state(x[:, model.x_layout["goal_phase"]]).double().numpy()  # (T − 1, C, 3)
+    target = features.phase_state(y[:, model.y_layout["goal_phase"]]).double().numpy()
+    anchor, T = int(clip.meta["anchor_frame"]), len(clip)
+    t = np.arange(T - 1)
+    g = np.where(t <= anchor, anchor, T - 1)
+    expected = kalman.goal_phase_at(states.double().numpy()[g], (g - t)[:, None], kalman.PhaseFilterConfig())
+    assert np.abs(kalman.phase_difference(fed[..., 0], expected[..., 0])).max() < 1e-5
+    np.testing.assert_allclose(fed[..., 1:], expected[..., 1:], atol=1e-5)
+    np.testing.assert_allclose(fed[anchor], states[anchor].double().numpy(), atol=1e-5)  # the keyframe's at g
+    assert np.abs(kalman.phase_difference(target[:-1, :, 0], fed[1:, :, 0])).max() < 1e-5
+    np.testing.assert_allclose(target[:-1, :, 1:], fed[1:, :, 1:], atol=1e-5)
+    # Eq. 18's prediction of each frame's goal phase is the next frame's
+    inside = _segments(clip)
+    config = kalman.PhaseFilterConfig()
+    zero = np.zeros(fed.shape[1:] + (3,))
+    predicted = np.stack([kalman.predict(fed[i], zero, zero, config)[0] for i in inside])
+    assert np.abs(kalman.phase_difference(predicted[..., 0], fed[inside + 1, :, 0])).max() < 1e-4
+    assert np.abs(kalman.phase_difference(fed[1:anchor, :, 0], fed[:anchor - 1, :, 0])).max() > 1e-2  # it moves
+
+
+def test_run_time_matched_goal_phase_is_the_training_goal_phase(trained, clips, start):
+    """A training clip's own keyframe as the matched goal, rolled out from the clip's first frame: the matched goal
+    phase fed at step k is the goal phase training fed at frame k (one goal-phase model, ``kalman.goal_phase_at``);
+    from a later start (``clip_goal(frame=...)``) it is the training goal phase of that later frame."""
+    model = trained.model
+    state, goal = start
+    assert goal.due.tolist() == [int(c.meta["anchor_frame"]) for c in clips]
+    frames = 8
+    run = runtime.rollout(model, state, goal, frames, "matched")
+    for b, clip in enumerate(clips):
+        x, _, _ = features.clip_features(clip, model.phase_model)
+        torch.testing.assert_close(run.goal_phase[:, b], x[:frames, model.x_layout["goal_phase"]], atol=2e-5, rtol=0)
+        later = runtime.clip_goal(model, [clip], frame=5)
+        assert int(later.due[0]) == int(clip.meta["anchor_frame"]) - 5
+        one = runtime.rollout(model, runtime.initial_state(model, [clip], 5), later, 3, "matched")
+        torch.testing.assert_close(one.goal_phase[:, 0], x[5:8, model.x_layout["goal_phase"]], atol=2e-5, rtol=0)
+
+
+def test_the_filters_prediction_agrees_with_the_run_time_matched_measurement(trained, start):
+    """Algorithm 1's prediction ``F G^p`` (Eq. 18) of a rollout's matched goal phase M_k is M_{k+1}; fed M_k as both
+    measurements, noiselessly, the filter stays on it frame by frame: no steady bias."""
+    model = trained.model
+    state, goal = start
+    frames = 12
+    run = runtime.rollout(model, state, goal, frames, "matched")
+    measured = features.phase_state(run.goal_phase).double().numpy()  # (frames, B, C, 3): M_k as fed
+    config = runtime.phase_filter_config(model)
+    zero = np.zeros(measured.shape[1:] + (3,))
+    predicted = np.stack([kalman.predict(m, zero, zero, config)[0] for m in measured[:-1]])
+    assert np.abs(kalman.phase_difference(predicted[..., 0], measured[1:, ..., 0])).max() < 1e-5
+    variance = model.phase_variance.double().numpy()
+    deviations = np.random.default_rng(0).uniform(0.05, 3.0, measured.shape[:2] + (1,))
+    estimates, _ = kalman.filter_sequence(variance, measured[1:], deviations[1:], config, matched_goals=measured[1:],
+                                          initial=(measured[0], zero))
+    assert np.abs(kalman.phase_difference(estimates[..., 0], measured[1:, ..., 0])).max() < 1e-5
+    np.testing.assert_allclose(estimates[..., 1:], measured[1:, ..., 1:], atol=1e-6)

@@ -249,6 +249,66 @@ def test_linear_control_tracks_a_moving_goal_when_a_minus_bc_is_stable():
     np.testing.assert_allclose(state[:, 1:], goal[:, 1:], atol=1e-6)
 
 
+# ----------------------------------------------------------------------------- one goal-phase model (§5.2)
+
+
+@given(st.floats(0, 1, exclude_max=True), st.floats(0, 1), st.floats(0, 15), st.integers(-200, 200))
+def test_the_goal_phase_is_the_keyframe_state_carried_by_the_free_dynamics(S, A, F, frames):
+    """``goal_phase_at(X_g, g − t) = F^{t−g} X_g`` (Eqs. 15–16, ``U = 0``): the keyframe's at ``g``, and Eq. 18's
+    prediction of the goal phase of frame ``t`` is that of ``t + 1``, before and after the keyframe."""
+    keyframe = np.array([S, A, F])
+    at = K.goal_phase_at(keyframe, frames, CONFIG)
+    carried = K.transition_matrix(-frames * CONFIG.dt) @ keyframe  # F^{t−g} = A of Δt·(t − g)
+    assert_same_state(at, carried, atol=1e-9)
+    assert 0 <= at[PHASE] < 1
+    assert_same_state(K.goal_phase_at(keyframe, 0, CONFIG), keyframe, atol=0)
+    zero = np.zeros((3, 3))
+    assert_same_state(K.predict(at, zero, zero, CONFIG)[0], K.goal_phase_at(keyframe, frames - 1, CONFIG), atol=1e-9)
+    assert_same_state(K.lds_step(at, np.zeros(3), CONFIG), K.goal_phase_at(keyframe, frames - 1, CONFIG), atol=1e-9)
+
+
+def test_the_goal_phase_broadcasts_over_frames_characters_and_channels():
+    rng = np.random.default_rng(3)
+    keyframe = K.constrain(rng.uniform([0, 0, 0.5], [1, 1, 4], (5, 4, 3)), CONFIG)  # (characters, channels, 3)
+    due = rng.integers(10, 60, 5)
+    to_keyframe = due[None, :, None] - np.arange(70)[:, None, None]  # (frames, characters, 1): g − t
+    goal = K.goal_phase_at(keyframe, to_keyframe, CONFIG)
+    assert goal.shape == (70, 5, 4, 3)
+    for b in range(5):
+        np.testing.assert_allclose(goal[due[b], b], keyframe[b], atol=1e-12)  # the keyframe's at its frame
+        one = K.goal_phase_at(keyframe[b, 2], due[b] - 7, CONFIG)
+        assert_same_state(goal[7, b, 2], one, atol=0)
+    with pytest.raises(ValueError, match="keyframe_state: expected shape"):
+        K.goal_phase_at(np.zeros(2), 0, CONFIG)
+    with pytest.raises(ValueError, match="broadcast"):
+        K.goal_phase_at(keyframe, np.zeros(3), CONFIG)
+    with pytest.raises(ValueError, match="frames_to_keyframe.*finite"):
+        K.goal_phase_at(keyframe, np.nan, CONFIG)
+
+
+def test_noiseless_goal_phase_measurements_leave_the_filter_no_steady_bias():
+    """Algorithm 1 fed the goal-phase model's own goal phases (no noise) as both measurements tracks them exactly,
+    frame by frame, through the keyframe and beyond; the keyframe's phase held instead, which the prediction ``F G^p``
+    moves on every frame, leaves a steady bias however clean."""
+    rng = np.random.default_rng(11)
+    characters, channels, frames = 6, 4, 90
+    keyframe = K.constrain(rng.uniform([0, 0.2, 1.0], [1, 0.8, 3.0], (characters, channels, 3)), CONFIG)
+    due = rng.integers(30, 60, characters)
+    truth = K.goal_phase_at(keyframe, due[None, :, None] - np.arange(frames + 1)[:, None, None], CONFIG)
+    variance = np.array([1 / 12, 0.05, 0.3])
+    deviations = rng.uniform(0.05, 3.0, (frames, characters, 1))
+    use = rng.random((frames, characters, 1)) < 0.5
+    estimates, _ = K.filter_sequence(variance, truth[1:], deviations, CONFIG, matched_goals=truth[1:],
+                                     use_matched=use, initial=(truth[0], np.zeros(truth.shape[1:] + (3,))))
+    assert_same_state(estimates, truth[1:], atol=1e-9)
+    held = np.broadcast_to(keyframe, truth[1:].shape)
+    biased, _ = K.filter_sequence(variance, held, deviations, CONFIG, matched_goals=held, use_matched=use,
+                                  initial=(keyframe, np.zeros(truth.shape[1:] + (3,))))
+    signed = K.phase_difference(biased[-30:, ..., PHASE], keyframe[..., PHASE])  # after it has settled
+    assert np.all(signed > 0)  # ahead of the held measurement on every frame, character and channel
+    assert signed.mean() > 0.2 * CONFIG.dt * keyframe[..., FREQUENCY].mean()
+
+
 @given(st.floats(-1e6, 1e6, allow_nan=False))
 def test_wrap_phase_lands_in_unit_interval_and_differences_in_half_interval(x):
     w = K.wrap_phase(x)

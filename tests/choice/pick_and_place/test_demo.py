@@ -230,9 +230,10 @@ def test_the_controller_at_the_cabinet_gets_the_demos_handle_keyframe_and_both_s
                                                            - handle))) < 1e-5
     # the standing start alone, rolled out with the Kalman goal phase, gives the batch's numbers
     side = ("left", "right").index(run0.hands["door"])
-    goal = runtime.clip_goal(model, [dataclasses.replace(run0.motion, meta={"anchor_frame": g,
-                                                                                "hand": run0.hands["door"]})])
     f = standing["frame"]
+    goal = runtime.clip_goal(model, [dataclasses.replace(run0.motion, meta={"anchor_frame": g,
+                                                                                "hand": run0.hands["door"]})], frame=f)
+    assert int(goal.due[0]) == g - f  # the grasp, counted from the standing start
     alone = runtime.rollout(model, runtime.initial_state(model, [run0.motion.slice(0, f + 1)], frame=f), goal, 8,
                                "kalman")
     closest = float(np.min(np.linalg.norm(alone.wrist[:, 0, side].numpy() - handle, axis=-1)))
@@ -273,7 +274,8 @@ def test_controller_reaches_start_where_each_approach_starts_and_aim_at_the_demo
     assert np.linalg.norm(out["handle"]["target"] - run0.plan.task.auxiliary.contact) < 0.02
     # the bottle's contact rolled out alone gives the batch's wrist
     v = out["bottle"]
-    goal = runtime.clip_goal(model, [dataclasses.replace(run0.motion, meta={"anchor_frame": v["due"], "hand": v["hand"]})])
+    goal = runtime.clip_goal(model, [dataclasses.replace(run0.motion, meta={"anchor_frame": v["due"], "hand": v["hand"]})],
+                             frame=v["start"])
     state = runtime.toward_goal(runtime.initial_state(model, [run0.motion.slice(0, v["start"] + 1)], frame=v["start"]),
                                 goal)
     alone = runtime.rollout(model, state, goal, len(v["wrist"]), "kalman")

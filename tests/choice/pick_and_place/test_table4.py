@@ -38,6 +38,8 @@ def test_the_matched_goal_phase_never_comes_from_the_clip_under_test(tiny):
         # the phase is the library clip's at its grasp, recomputed here ...
         stored = phase.clip_phase(pae, source).state()[int(source.meta["anchor_frame"])]
         assert torch.allclose(matched.goal.phase[b], stored.float(), atol=1e-6)
+        # due as the library clip's grasp was after its start (the rollouts carry the phase by goal_phase_at)
+        assert int(matched.goal.due[b]) == int(source.meta["anchor_frame"]) == windows[int(row)].anchor
         # ... and not the clip under test's own
         own = phase.clip_phase(pae, clip).state()[int(clip.meta["anchor_frame"])]
         assert float((matched.goal.phase[b] - own.float()).abs().max()) > 1e-3
@@ -138,11 +140,12 @@ def test_the_goal_of_a_table4_scene_comes_back_from_the_cache_as_run(tmp_cache):
     rng = np.random.default_rng(0)
     goal = KeyJointGoal(torch.as_tensor(rng.normal(size=(3, 13, 4, 3)), dtype=torch.float32),
                         torch.eye(3).expand(3, 13, 4, 3, 3).clone(), torch.as_tensor(rng.normal(size=(3, 4, 3))),
-                        torch.tensor([0, 1, 1]))
+                        torch.tensor([0, 1, 1]), torch.tensor([40, 52, 47]))
     table = load_or_build("test_table4_goal", {}, lambda: {"anchors": np.arange(3), "goal": goal._asdict()})
     one = table4.scene_goal(table, 1)
     for name, value in one._asdict().items():
         assert torch.equal(value, getattr(goal, name)[1:2]), name
+    assert table4.scene_goal({"anchors": np.arange(3), "goal": goal._replace(due=None)._asdict()}, 1).due is None
     for bad in (3, -1, True, 1.0):
         with pytest.raises(ValueError, match="scene"):
             table4.scene_goal(table, bad)

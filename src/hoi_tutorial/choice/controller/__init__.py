@@ -17,7 +17,10 @@ root / hip / left wrist / right wrist, ``w = 13`` samples over 2 s):
    velocities), the 2D root trajectory (13 samples over ``[t − 1 s, t + 1 s]``: position and forward
    direction), the goals ``G_t^keyJ`` (the four key joints' positions and 6D rotations at 13 samples
    centred on ``g``), the current phase ``A·(sin 2πS, cos 2πS), F`` and the goal phase features of
-   Eq. 13, ``P̃_g = (A_g·sin 2πS_g + ε, A_g·cos 2πS_g + ε, F_g + ε)``, ``ε ~ N(0, 0.1)`` in training, and
+   Eq. 13, ``P̃_g = (A_g·sin 2πS_g + ε, A_g·cos 2πS_g + ε, F_g + ε)``, ``ε ~ N(0, 0.1)`` in training, of the goal
+   phase state of frame ``t``: the keyframe's ``[S, A, F]`` carried to ``t`` by Eqs. 15–16,
+   ``[S_g − (g − t) Δt F_g, A_g, F_g]`` (``kalman.goal_phase_at``, the one goal-phase model of training, the
+   matched measurement and the filter), and
    the hip's and wrists' 6D trajectories over the next second (7 samples ``t + 5k``; §5.1: "in addition to
    the 2D root trajectories on the ground, the 6D transformations of the hip and left/right wrists are also
    given"): the recorded ones in training, noised by ``key_noise``; at run time the previous step's blend.
@@ -30,7 +33,7 @@ root / hip / left wrist / right wrist, ``w = 13`` samples over 2 s):
    with the root's update, the next
    phase, the egocentric key-joint trajectory ``T^ego_{t+1}`` (1 s ahead, in the root frame of ``t``),
    the goal-centric one ``T^inv_{t+1}`` (each key joint in its own goal frame ``G``), and the goal
-   estimate ``Ĝ`` (13-sample window at ``g``) with its phase ``P̂_g``.
+   estimate ``Ĝ`` (13-sample window at ``g``) with its phase ``P̂_g`` (the goal phase state of ``t + 1``).
 5. **Run time** (:func:`runtime.controller_step`): the body is posed by forward kinematics from the predicted
    rotations, blended half-way from the previous frame's, with each character's bone offsets
    (``features.pose_from_rotations``: every bone keeps its length). ``G T^inv`` (Eq. 14) is blended with ``T^ego``
@@ -41,9 +44,11 @@ root / hip / left wrist / right wrist, ``w = 13`` samples over 2 s):
    (:func:`runtime.phase_update`): ``X_{t+Δt} = A X_t + B U``, the phase advanced by its frequency and moved
    ``β = 0.5`` of the way to the network's, the amplitude and frequency the network's, all within bounds.
 6. **Goal phase sources** (:func:`runtime.rollout`, Table 4): ``"none"`` (zeros), ``"matched"`` (the matched
-   clip's phase at its keyframe, held), ``"predicted"`` (the network's own ``P̂_g`` fed back), ``"kalman"``
-   (``kalman.filter_step`` on the network's ``P̂_g`` with ``R_pred = c Q`` and the matched phase with
-   ``R = Q`` where ``matched_measurement_active``; Algorithm 1). Each is bounded alike: the amplitude in
+   clip's phase at its keyframe carried to each frame by ``kalman.goal_phase_at``, the keyframe due
+   ``KeyJointGoal.due`` frames after the start), ``"predicted"`` (the network's own ``P̂_g`` fed back),
+   ``"kalman"`` (``kalman.filter_step`` on the network's ``P̂_g`` with ``R_pred = c Q`` and the matched phase
+   with ``R = Q`` where ``matched_measurement_active``; Algorithm 1, whose prediction ``F G^p`` advances the goal
+   phase as the goal-phase model does). Each is bounded alike: the amplitude in
    ``[0, A_max]``, ``A_max`` the largest amplitude of the training frames (``runtime.phase_filter_config``).
 
 Choices the paper does not state, ours:
@@ -60,9 +65,13 @@ Choices the paper does not state, ours:
 - ``c`` of Eq. 22 is the mean over the 7 future samples of the sum over the 4 key joints.
 - ``σ̄`` of Eq. 19 is the variance of ``[S, A, F]`` per channel over the training frames (``S`` as the
   wrapped number in [0, 1), not a circular variance).
-- The filter starts from the matched goal phase with ``P = 0`` (Algorithm 1 initialises the goal
-  on the click; the paper's ``G^p = 0`` would feed a zero goal phase at first). ``"predicted"`` starts
-  from the matched phase too.
+- The filter starts from the matched goal phase of the first frame with ``P = 0`` (Algorithm 1 initialises the
+  goal on the click; the paper's ``G^p = 0`` would feed a zero goal phase at first). ``"predicted"`` starts
+  from it too.
+- The goal phase of frame ``t`` is the keyframe's carried back along the free dynamics (Eqs. 15–16), so that it
+  advances by ``Δt F`` a frame, as the filter's ``F`` predicts it, and meets the keyframe's phase at ``g``
+  (``kalman``'s notes quote §5.2 for it). The time ``g − t`` at run time is ``KeyJointGoal.due`` less the steps
+  taken: a demo's contact frame, or in Table 4 the matched clip's own grasp frame.
 - Training is teacher-forced, then, for its last ``unroll_steps``, unrolled over ``unroll`` frames on the
   network's own pose, phase and future root trajectory (:func:`network.train_controller`); inputs and outputs
   are standardised with the training data's mean and std; the loss is the mean squared error in those units.
@@ -76,7 +85,8 @@ Choices the paper does not state, ours:
   (:func:`runtime.toward_goal`; a standing start is a fixed point the toy controller may not leave).
 
 Measured at toy (one CPU thread): 48 clips, about 8 400 frames, 2400 steps (the last 400 unrolled over 6 frames)
-in 51 / 54 / 52 s with seeds 0 / 1 / 2. On 12 unseen reaches the working wrist comes within a median 0.13 / 0.22 /
+in 51 / 54 / 52 s with seeds 0 / 1 / 2. The distances below were measured with the keyframe's goal phase held
+constant in training and matching, not yet with the goal-phase model of step 2. On 12 unseen reaches the working wrist comes within a median 0.13 / 0.22 /
 0.31 m of its grasp with the Kalman goal phase, 0.08 / 0.17 / 0.20 m without a goal phase (Table 4's runs when
 their goals were the test clips' own keyframes; with goals matched in the library and approaches planned by §4,
 ``pick_and_place.table4``, and the phase moved by Eqs. 15–16, 0.13 / 0.24 / 0.33 m with the Kalman goal phase and

@@ -19,7 +19,7 @@ from ...world.kinematics import forward_kinematics
 from ...world.motion import FPS, Motion
 from ...world.rotations import matrix_to_rotation_6d, rotation_6d_to_matrix, rotation_about_z
 from ...world.skeleton import NUM_JOINTS, joint_index
-from . import phase
+from . import kalman, phase
 from .phase import PhaseAutoencoder, PhaseParameters
 
 __all__ = [
@@ -147,7 +147,12 @@ def pose_from_rotations(rotations: torch.Tensor, pelvis: torch.Tensor, offsets: 
 
 @torch.no_grad()
 def clip_features(clip: Motion, pae: PhaseAutoencoder) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """``(x (T−1, in), y (T−1, out), phase states (T, C, 3))`` of one reach-and-grasp clip."""
+    """``(x (T−1, in), y (T−1, out), phase states (T, C, 3))`` of one reach-and-grasp clip.
+
+    The goal phase of frame ``t`` (the input ``P_g`` of Eq. 13 at ``t``, the target ``P̂_g`` at ``t + 1``) is the
+    next keyframe's PAE phase state carried to that frame by ``kalman.goal_phase_at`` (Eqs. 15–16), the one
+    goal-phase model the run time's matched measurement and Kalman filter use too.
+    """
     T = len(clip)
     joints = clip.joints
     origin, heading = root_frame(joints)
@@ -160,6 +165,10 @@ def clip_features(clip: Motion, pae: PhaseAutoencoder) -> tuple[torch.Tensor, to
     t = torch.arange(T - 1)
     goal_frame = torch.where(t <= anchor, anchor, T - 1)  # g(t): the next keyframe
     goal_next = torch.where(t + 1 <= anchor, anchor, T - 1)
+    goal_phase, goal_phase_next = (  # (T − 1, 3C): the goal phase of frames t and t + 1
+        goal_phase_features(kalman.goal_phase_at(states[g].double().numpy(), (g - f).double().numpy()[:, None],
+                                                 kalman.PhaseFilterConfig(dt=1.0 / clip.fps)))
+        for g, f in ((goal_frame, t), (goal_next, t + 1)))
 
     def at(index):  # frame indices clamped to the clip
         return index.clamp(0, T - 1)
@@ -174,7 +183,7 @@ def clip_features(clip: Motion, pae: PhaseAutoencoder) -> tuple[torch.Tensor, to
     trajectory = torch.cat([traj_p[..., :2], traj_r[..., :2, 1]], dim=-1)  # position, forward (+Y)
     x = torch.cat([pose_features(joints[t], clip.joint_velocities()[t], o, f), trajectory.flatten(1),
                    window(at(goal_frame[:, None] + WINDOW_OFFSETS), o, f).flatten(1), features[t],
-                   features[goal_frame], window(at(t[:, None] + FUTURE_OFFSETS), o, f)[:, :, 1:].flatten(1)], dim=-1)
+                   goal_phase, window(at(t[:, None] + FUTURE_OFFSETS), o, f)[:, :, 1:].flatten(1)], dim=-1)
 
     n = t + 1
     update_p, _ = in_frame(origin[n], frame[n], o, f)
@@ -184,7 +193,7 @@ def clip_features(clip: Motion, pae: PhaseAutoencoder) -> tuple[torch.Tensor, to
     inv_p, inv_r = in_frame(positions[future], rotations[future], g_p[:, None], g_r[:, None])
     y = torch.cat([pose_features(joints[n], clip.joint_velocities()[n], origin[n], frame[n]), root_update, features[n],
                    window(future, o, f).flatten(1), encode_transform(inv_p, inv_r).flatten(1),
-                   window(at(goal_next[:, None] + WINDOW_OFFSETS), o, f).flatten(1), features[goal_next],
+                   window(at(goal_next[:, None] + WINDOW_OFFSETS), o, f).flatten(1), goal_phase_next,
                    local_rotation_features(clip, n, frame[n])], dim=-1)
     return x.float(), y.float(), states
 

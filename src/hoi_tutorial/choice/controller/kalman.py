@@ -6,7 +6,7 @@ is ``X^p = [S, A, F]ᵀ`` — phase ``S`` (cycles, circular in [0, 1)), amplitud
 frequency ``F`` (Hz, in [0, F_m] with ``F_m`` the Nyquist frequency). CHOICE models the controller as
 the linear dynamical system of Eqs. 15–17, ``X_{t+Δt} = A X_t + B U`` with ``A`` advancing the phase
 by ``Δt·F``, ``B = diag(β, 1, 1)`` (``β = 0.5``) and the network's update ``U = [ΔS, ΔA, ΔF]ᵀ``,
-approximately ``C (X_g − X_t)``. The *goal* phase ``G^p`` (the phase state at the next keyframe) is
+approximately ``C (X_g − X_t)``. The *goal* phase ``G^p`` (the phase state of the next keyframe) is
 not known at run time, so a Kalman filter tracks it (Algorithm 1): predict with ``F = A`` and
 ``Q = 0.2·diag(σ̄)`` (Eqs. 18–19, ``σ̄`` the dataset's variance of each state variable), then refine
 with the network's goal-phase prediction, covariance ``R_pred = c·Q`` where ``c`` is the deviation
@@ -16,7 +16,7 @@ its goal and the working hand is not — with the phase of the matched motion, c
 What ours does. The same filter on numpy float64 arrays, batched over any leading dimensions
 (characters × channels): state ``(..., 3)`` ordered ``[S, A, F]`` as the paper's ``X^p``, covariance
 ``(..., 3, 3)``. :func:`lds_step` is Eq. 15, :func:`linear_control` Eq. 17's approximation,
-:func:`predict` Eq. 18, :func:`update` one measurement of Eq. 20, :func:`filter_step` one pass of
+:func:`goal_phase_at` the goal state of Eqs. 15–16 frame by frame (below), :func:`predict` Eq. 18, :func:`update` one measurement of Eq. 20, :func:`filter_step` one pass of
 Algorithm 1's loop, :func:`filter_sequence` the loop over frames and :func:`bidirectional_deviation`
 Eq. 22. It works on ``[S, A, F]``; Eq. 13's features ``A·(cos 2πS, sin 2πS)`` are the PAE's
 (``phase``). The filter equals ``filterpy.kalman.KalmanFilter`` with ``H = I`` to rounding (the tests
@@ -25,6 +25,18 @@ check it), up to the phase wrap below. Eq. 20 itself is missing from our copy of
 
 Choices the paper does not state, ours:
 
+- **One goal-phase model.** §5.2 makes the goal ``X_g^p`` a state of the same linear system as ``X_t^p`` (Eqs.
+  15–17: the state "can be guided to converge toward the desired goal state"), the filter predicts it with the
+  phase-advancing ``F`` of Eq. 19 and calls it "the time-varying goal state", whose estimate is "a continuous-time
+  goal trajectory in the latent space that infills the interaction keyframes". We read the goal phase at frame
+  ``t`` as the keyframe's phase state ``X^p_g`` (§5.1's ``(A_g, S_g, F_g)`` at frame ``g``) carried along the free
+  dynamics to ``t``: ``X_g^p(t) = F^{t−g} X_g^p = [S_g − (g − t) Δt F_g, A_g, F_g]``, which reaches the keyframe's
+  phase at ``g`` and advances by ``F`` every frame (:func:`goal_phase_at`). The training inputs and targets
+  (``features.clip_features``), the matched measurement and the start of the filter (``runtime.rollout``) all
+  take it from :func:`goal_phase_at`, so that the filter's prediction ``F G^p`` and its measurements agree on the
+  goal phase of every frame. (Were a measurement held at the keyframe's phase while ``F`` advances the estimate, it
+  would leave a steady bias however clean the measurement, about ``(1 − K) / K · Δt F`` cycles for a phase gain
+  ``K``.)
 - **Sequential updates.** Algorithm 1 writes the gain with the predicted ``P′`` and the innovation
   against the predicted ``G^{p′}`` inside its loop over measurements; read literally with two
   measurements it would count the prediction twice. We read it as Eq. 20's "refined iteratively with
@@ -76,6 +88,7 @@ __all__ = [
     "constrain",
     "lds_step",
     "linear_control",
+    "goal_phase_at",
     "process_noise",
     "initial_goal_phase",
     "predict",
@@ -259,6 +272,32 @@ def linear_control(state, goal, gain) -> np.ndarray:
     error = goal - state
     error[..., PHASE] = phase_difference(goal[..., PHASE], state[..., PHASE])
     return np.einsum("...ij,...j->...i", gain, error)
+
+
+def goal_phase_at(keyframe_state, frames_to_keyframe, config: PhaseFilterConfig) -> np.ndarray:
+    """The goal phase state at frame ``t``, ``frames_to_keyframe = g − t`` frames before the keyframe ``g``: the
+    keyframe's state carried along the free dynamics of Eqs. 15–16 (``U = 0``), ``X_g^p(t) = F^{t−g} X_g^p``
+    with ``F = A`` of Eqs. 16 and 19, that is ``[S_g − (g − t) Δt F_g, A_g, F_g]``, the phase wrapped into [0, 1).
+
+    The one goal-phase model of training (``features.clip_features``' goal phase inputs and ``P̂_g`` targets),
+    the matched measurement (``runtime.rollout``) and the filter (whose Eq. 18 prediction ``F G^p`` of frame ``t``
+    is this function at ``t + 1``): the goal phase advances by ``Δt F`` every frame and equals the keyframe's at
+    ``g``. After the keyframe (``g − t < 0``) it goes on advancing.
+
+    Args:
+        keyframe_state: (..., 3) ``X_g^p = [S_g, A_g, F_g]`` of the keyframe (cycles, amplitude, Hz).
+        frames_to_keyframe: ``g − t`` in frames (any sign, not necessarily whole), broadcastable against
+            ``keyframe_state[..., 0]``.
+        config: its ``dt`` is ``Δt``.
+    Returns:
+        (..., 3) float64 ``X_g^p(t)``, the batch shapes broadcast; amplitude and frequency the keyframe's.
+    """
+    keyframe_state = _array(keyframe_state, (..., 3), "keyframe_state")
+    frames = _array(frames_to_keyframe, (...,), "frames_to_keyframe")
+    batch = _batch_shape(keyframe_state=keyframe_state.shape[:-1], frames_to_keyframe=frames.shape)
+    state = np.broadcast_to(keyframe_state, batch + (3,)).copy()
+    state[..., PHASE] = wrap_phase(state[..., PHASE] - frames * config.dt * state[..., FREQUENCY])
+    return state
 
 
 # ----------------------------------------------------------------------------- the Kalman filter (Eqs. 18–22)

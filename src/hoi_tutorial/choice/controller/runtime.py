@@ -6,7 +6,8 @@ A :class:`ControllerState` is one character's pose, root trajectory, phase and k
 runs the network once, poses the whole body by forward kinematics from its predicted local rotations (every bone
 keeps its length), moves the phase by Eqs. 15–16 (:func:`phase_update`) and blends ``G T^inv`` with ``T^ego``
 (Eq. 14); :func:`rollout` steps a batch of characters with one of Table 4's goal-phase sources, the Kalman filter
-of ``kalman`` among them.
+of ``kalman`` among them. Every source but ``"none"`` reads the goal phase of a frame from one model,
+``kalman.goal_phase_at`` (the keyframe's phase state carried by Eqs. 15–16 to that frame), as training does.
 """
 from __future__ import annotations
 
@@ -68,14 +69,19 @@ class KeyJointGoal(NamedTuple):
     Attributes:
         positions: (B, 13, 4, 3) the key joints' world positions over the goal window (metres).
         rotations: (B, 13, 4, 3, 3) their world rotations.
-        phase: (B, C, 3) the matched goal phase ``[S, A, F]`` (the ``"matched"`` source, Kalman's prior).
+        phase: (B, C, 3) the matched keyframe's phase ``[S, A, F]`` (``X^p_g``; the ``"matched"`` source and
+            Kalman's prior carry it to each frame by ``kalman.goal_phase_at``).
         hand: (B,) long, 0 left, 1 right: the working hand.
+        due: (B,) the keyframe's frame ``g`` counted from a rollout's start (its first step is frame 0): the goal
+            phase at step ``k`` is ``kalman.goal_phase_at(phase, due − k)``. ``None``: unknown, and only the
+            ``"none"`` source can run.
     """
 
     positions: torch.Tensor
     rotations: torch.Tensor
     phase: torch.Tensor
     hand: torch.Tensor
+    due: Optional[torch.Tensor] = None
 
 
 def _ground(origin, heading):
@@ -114,9 +120,12 @@ def initial_state(model: ControllerNet, clips, frame: int = 0) -> ControllerStat
 
 
 @torch.no_grad()
-def clip_goal(model: ControllerNet, clips) -> KeyJointGoal:
+def clip_goal(model: ControllerNet, clips, frame: int = 0) -> KeyJointGoal:
     """The grasp keyframe of each reach-and-grasp clip as a goal, with the clip's PAE phase there as
-    the matched goal phase."""
+    the matched goal phase, due ``anchor_frame − frame`` frames after a rollout that starts at the clip's ``frame``
+    (:func:`initial_state`'s)."""
+    if isinstance(frame, bool) or not isinstance(frame, (int, np.integer)):
+        raise ValueError(f"frame: expected an int (the rollout's first frame in the clips), got {frame!r}")
     rows = []
     for clip in clips:
         if "anchor_frame" not in clip.meta or "hand" not in clip.meta:
@@ -126,9 +135,10 @@ def clip_goal(model: ControllerNet, clips) -> KeyJointGoal:
         index = (g + WINDOW_OFFSETS).clamp(0, len(clip) - 1)
         params = phase.clip_phase(model.phase_model, clip)
         state = params.state()[g]
-        rows.append((positions[index], rotations[index], state, torch.tensor(int(clip.meta["hand"] == "right"))))
-    positions, rotations, state, hand = (torch.stack(v) for v in zip(*rows))
-    return KeyJointGoal(positions.float(), rotations.float(), state.float(), hand)
+        rows.append((positions[index], rotations[index], state, torch.tensor(int(clip.meta["hand"] == "right")),
+                     torch.tensor(g - int(frame))))
+    positions, rotations, state, hand, due = (torch.stack(v) for v in zip(*rows))
+    return KeyJointGoal(positions.float(), rotations.float(), state.float(), hand, due)
 
 
 def toward_goal(state: ControllerState, goal: KeyJointGoal, speed: float = 1.0) -> ControllerState:
@@ -178,6 +188,9 @@ def _check_step_inputs(model, state, goal, goal_phase):
                                ("goal.phase", goal.phase, (B, C, 3)), ("goal.hand", goal.hand, (B,)),
                                ("goal_phase", goal_phase, (B, 3 * C))):
         check_shape(value, shape, name)
+    if goal.due is not None:
+        check_shape(goal.due, (B,), "goal.due")
+        check_finite(goal.due, "goal.due")
 
 
 @torch.inference_mode()  # no autograd bookkeeping at all: about 15 % of a batch-1 step
@@ -317,12 +330,15 @@ def rollout(model: ControllerNet, state: ControllerState, goal: KeyJointGoal, fr
             filter_config: Optional[kalman.PhaseFilterConfig] = None) -> Rollout:
     """Drive ``B`` characters toward their goals for ``frames`` frames with one goal-phase source (Table 4).
 
-    ``variant``: ``"none"`` (zeros), ``"matched"`` (``goal.phase`` held), ``"predicted"`` (the network's
-    previous ``P̂_g``, starting from ``goal.phase``) or ``"kalman"`` (Algorithm 1: ``kalman.filter_step`` on
-    the network's ``P̂_g`` with ``R_pred = c Q`` and, where ``matched_measurement_active``, ``goal.phase``
-    with ``R = Q``; starting from ``goal.phase`` with ``P = 0``). Every source's goal phase is bounded alike
-    (``kalman.constrain``: the amplitude in ``[0, A_max]``, the frequency in ``[0, F_m]``), as the filter bounds
-    its own; ``filter_config`` None: :func:`phase_filter_config`.
+    The matched goal phase of step ``k`` is ``M_k = kalman.goal_phase_at(goal.phase, goal.due − k)``: the matched
+    keyframe's phase carried to that frame by Eqs. 15–16, the goal-phase model training's inputs and targets
+    follow (``features.clip_features``) and the filter's prediction ``F G^p`` keeps. ``variant``: ``"none"``
+    (zeros), ``"matched"`` (``M_k``), ``"predicted"`` (the network's previous ``P̂_g``, starting from ``M_0``) or
+    ``"kalman"`` (Algorithm 1: ``kalman.filter_step`` from step ``k`` to ``k + 1`` on the network's ``P̂_g`` with
+    ``R_pred = c Q`` and, where ``matched_measurement_active``, ``M_{k+1}`` with ``R = Q``; starting from ``M_0``
+    with ``P = 0``). Every source's goal phase is bounded alike (``kalman.constrain``: the amplitude in
+    ``[0, A_max]``, the frequency in ``[0, F_m]``), as the filter bounds its own; ``filter_config`` None:
+    :func:`phase_filter_config`. Every source but ``"none"`` needs ``goal.due``.
     """
     check_choice(variant, VARIANTS, "variant")
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
@@ -330,15 +346,24 @@ def rollout(model: ControllerNet, state: ControllerState, goal: KeyJointGoal, fr
     filter_config = phase_filter_config(model) if filter_config is None else filter_config
     B = state.origin.shape[0]
     _check_step_inputs(model, state, goal, torch.zeros(B, 3 * model.channels))
-    matched = kalman.constrain(goal.phase.double().numpy(), filter_config)
-    estimate = matched.copy()
-    covariance = np.zeros(estimate.shape + (3,))
+    if goal.due is None and variant != "none":
+        raise ValueError(f"goal.due: expected (B,) frames to the keyframe for the {variant!r} goal phase, got None")
+    keyframe = kalman.constrain(goal.phase.double().numpy(), filter_config)  # (B, C, 3) X^p_g
+    matched = None  # (frames + 1, B, C, 3): M_k of every step k, and of the frame after the last
+    if goal.due is not None:
+        to_keyframe = goal.due.double().numpy()[None, :, None] - np.arange(frames + 1)[:, None, None]  # g − k
+        matched = kalman.goal_phase_at(keyframe, to_keyframe, filter_config)
+    estimate = None if matched is None else matched[0]
+    covariance = np.zeros(keyframe.shape + (3,))
     variance = model.phase_variance.double().numpy()
     centre = goal.positions[:, WINDOW // 2]
     root_goal, hand_goal = centre[:, 0, :2].double().numpy(), centre[torch.arange(B), 2 + goal.hand].double().numpy()
     records = []
-    for _ in range(frames):
-        fed = torch.zeros(B, 3 * model.channels) if variant == "none" else goal_phase_features(estimate)
+    for k in range(frames):
+        if variant == "none":
+            fed = torch.zeros(B, 3 * model.channels)
+        else:
+            fed = goal_phase_features(matched[k] if variant == "matched" else estimate)
         state, out = _step(model, state, goal, fed, blend_radius, filter_config)
         predicted = out["goal_phase_state"].double().numpy()
         if variant == "predicted":
@@ -351,7 +376,8 @@ def rollout(model: ControllerNet, state: ControllerState, goal: KeyJointGoal, fr
                                                        hand.double().numpy(), hand_goal, filter_config, check=False)
             estimate, covariance = kalman.filter_step(estimate, covariance, variance, predicted,
                                                       out["deviation"].double().numpy()[:, None], filter_config,
-                                                      matched_goal=matched, use_matched=active[:, None], check=False)
+                                                      matched_goal=matched[k + 1], use_matched=active[:, None],
+                                                      check=False)
         records.append((out["joints"], out["wrist"], state.origin, fed, out["goal_phase_state"], out["deviation"]))
     joints, wrist, origin, fed, predicted, deviation = (torch.stack(v) for v in zip(*records))
     return Rollout(joints, wrist, origin, fed, predicted, deviation, state)

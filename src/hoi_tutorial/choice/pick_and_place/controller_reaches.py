@@ -11,7 +11,8 @@ run:
    ``"place"``), each with the phase that approaches it (``"reach handle"``, ``"reach bottle"``, ``"place"``).
 2. **The goal** of each (Fig. 6's keyframe, as the controller takes it, §5.1): the demo's key joints over the
    2 s window about the contact frame (``runtime.clip_goal``: the keyframe IK has fitted to the scene, §6.3)
-   with the PAE phase there as the matched goal phase; the working hand is the contact's.
+   with the PAE phase there as the matched goal phase, due when the demo reaches the contact; the working hand
+   is the contact's.
 3. **The start**: the demo's state where the approach begins (the body, the root history and the phase up to
    that frame), the future root on the line to the goal's root (``runtime.toward_goal``: the body is at its
    stance, so the root path is short).
@@ -89,7 +90,8 @@ def controller_reaches(run: PickAndPlace, model: network.ControllerNet, wait: fl
         hand = run.hands[role]
         state = runtime.initial_state(model, [motion.slice(0, start + 1)], frame=start)  # sees the run up to start
         # Fig. 6's keyframe at the contact: the demo's key joints about it, fitted to the scene by IK (§6.3)
-        goal = runtime.clip_goal(model, [dataclasses.replace(motion, meta={"anchor_frame": due, "hand": hand})])
+        goal = runtime.clip_goal(model, [dataclasses.replace(motion, meta={"anchor_frame": due, "hand": hand})],
+                                 frame=start)  # the contact due − start frames into the rollout
         rows.append((name, start, due, hand, runtime.toward_goal(state, goal), goal))
     state = runtime.ControllerState(*(torch.cat(parts) for parts in zip(*(r[4] for r in rows))))
     goal = runtime.KeyJointGoal(*(torch.cat(parts) for parts in zip(*(r[5] for r in rows))))

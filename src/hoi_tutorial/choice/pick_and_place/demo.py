@@ -480,7 +480,7 @@ def controller_at_cabinet(run: PickAndPlace, model, frames: int = 60, lead: floa
 
     The goal is the door hand's grasp of the handle (the first frame of ``"grasp handle"``): the four key joints
     of the demo's IK-posed motion over the 13-sample window there (``features.key_joint_transforms``), the PAE
-    phase there as the matched goal phase, the door hand working. Each goal-phase source (``features.VARIANTS``)
+    phase there as the matched goal phase, due at the demo's grasp, the door hand working. Each goal-phase source (``features.VARIANTS``)
     is rolled out for ``frames`` frames from two starts:
 
     - ``"standing"``: the pose where the demo's reach begins (stance A, after the walk and the settle), the
@@ -526,6 +526,7 @@ def controller_at_cabinet(run: PickAndPlace, model, frames: int = 60, lead: floa
         states.append(runtime.toward_goal(state, goal) if walking else state)
     state = runtime.ControllerState(*(torch.cat(parts) for parts in zip(*states)))  # both starts in one batch
     goals = runtime.KeyJointGoal(*(part.expand(len(states), *part.shape[1:]) for part in goal))
+    goals = goals._replace(due=torch.tensor([g - frame for frame, _ in starts.values()]))  # the grasp from each start
     closest, root_error = {}, {}
     for variant in features.VARIANTS:
         rolled = runtime.rollout(model, state, goals, frames, variant)

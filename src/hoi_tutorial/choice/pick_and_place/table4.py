@@ -15,7 +15,9 @@ The algorithm box, as this module runs it (``B`` scenes):
      as ``goal_library.match_goal`` carries a keyframe — into the new goal's frame, then shifted so that the working
      wrist lies on the grasp point (the root kept on the ground);
    - the matched goal phase: that clip's PAE phase ``[S, A, F]`` at its grasp, precomputed (§5.2: "the
-     corresponding phase of each frames can be precomputed by the PAE").
+     corresponding phase of each frames can be precomputed by the PAE"), due at that clip's grasp frame counted
+     from the rollout's start (``KeyJointGoal.due``): the rollouts carry it to each frame by
+     ``controller.kalman.goal_phase_at``, as training does.
 3. **The approach** (§4, :func:`planned_approach_goal`): the working wrist's samples up to the keyframe are
    replaced by the implicit planner's plan (chapter 16's, ``intp.plan_trajectory``) from the window's first
    sample to the grasp point among the scene's obstacles — CHOICE's ``τ_plan``.
@@ -31,7 +33,8 @@ The algorithm box, as this module runs it (``B`` scenes):
 
 Ours, where CHOICE does not say or where the toy differs:
 
-- The nearest keyframe (``k = 1``) gives both the window and the phase.
+- The nearest keyframe (``k = 1``) gives the window, the phase and the time to the keyframe (its clip's grasp frame:
+  the toy reaches start standing, as the scenes do).
 - **The plan on the window**: the planned path (with its walk from the wrist to ``x_s``) is laid on the window's
   seven approach samples evenly by frame, so the window keeps the matched clip's timing; the rotations stay the
   matched clip's (CHOICE transfers the prior's orientations onto the plan, Eq. 12). Where the planner finds no
@@ -56,7 +59,7 @@ from ...world import mocap
 from ...world.motion import FPS, Motion
 from ...world.objects import object_from_description
 from ..controller import network, phase, runtime
-from ..controller.features import WINDOW, WINDOW_OFFSETS, WRIST_JOINTS, key_joint_transforms
+from ..controller.features import WINDOW, WINDOW_OFFSETS, WRIST_JOINTS, key_joint_transforms, phase_state
 from ..controller.measures import motion_measures, pose_window_features
 from ..planner import baselines, fields, interactions, intp
 from ..planner.interactions import condition_vector
@@ -112,6 +115,7 @@ class KeyframeWindow(NamedTuple):
         phase: (C, 3) the clip's PAE phase ``[S, A, F]`` at the contact.
         frame: (4, 4) ``world_from_goal`` of the clip's goal (``environment.goal_frame`` of its grid).
         seed: the clip's seed (its ``meta["seed"]``).
+        anchor: the contact's frame in the clip (its ``meta["anchor_frame"]``): the frames from the clip's start to it.
     """
 
     positions: np.ndarray
@@ -119,6 +123,7 @@ class KeyframeWindow(NamedTuple):
     phase: np.ndarray
     frame: np.ndarray
     seed: int
+    anchor: int
 
 
 def _hand_goal(scene: ReachScene, config: EnvironmentConfig) -> env.HandGoal:
@@ -148,7 +153,7 @@ def reach_library(clips, env_model: env.EnvironmentAutoencoder, phase_model: pha
         frames = (anchor + WINDOW_OFFSETS).clamp(0, len(clip) - 1)
         state = phase.clip_phase(phase_model, clip).state()[anchor]
         windows.append(KeyframeWindow(positions[frames].double().numpy(), rotations[frames].double().numpy(),
-                                      state.double().numpy(), goal_frame(goal.grid), int(clip.meta["seed"])))
+                                      state.double().numpy(), goal_frame(goal.grid), int(clip.meta["seed"]), anchor))
     return goal_library.build_goal_library(env_model, rows), windows
 
 
@@ -171,7 +176,8 @@ class MatchedGoals(NamedTuple):
 def matched_goals(scenes, library: GoalLibrary, model: env.EnvironmentAutoencoder, windows,
                   config: EnvironmentConfig = EnvironmentConfig()) -> MatchedGoals:
     """The goal of each scene by §6.1 matching: the nearest grasp keyframe for the scene's hand
-    (``goal_library.match_goal``, k = 1), its window and phase from ``windows`` (:func:`reach_library`'s).
+    (``goal_library.match_goal``, k = 1), its window, phase and time from its clip's start (the goal's ``due``)
+    from ``windows`` (:func:`reach_library`'s).
 
     The window is carried into the scene like ``match_goal``'s keyframe: from the matched clip's goal frame into
     the scene's, then shifted so that the working wrist at the contact lies on the grasp point; the root's height
@@ -193,11 +199,13 @@ def matched_goals(scenes, library: GoalLibrary, model: env.EnvironmentAutoencode
         k = 2 + HANDS.index(s.hand)
         positions = positions + (s.grasp_point - positions[_CENTRE, k])
         positions[:, 0, 2] = 0.0
-        rows.append((positions, rotations, window.phase, HANDS.index(s.hand), match.index, match.distance, window.seed))
-    positions, rotations, states, hands, indices, distances, seeds = zip(*rows)
+        rows.append((positions, rotations, window.phase, HANDS.index(s.hand), match.index, match.distance, window.seed,
+                     window.anchor))
+    positions, rotations, states, hands, indices, distances, seeds, anchors = zip(*rows)
     goal = runtime.KeyJointGoal(torch.as_tensor(np.stack(positions), dtype=torch.float32),
                                 torch.as_tensor(np.stack(rotations), dtype=torch.float32),
-                                torch.as_tensor(np.stack(states), dtype=torch.float32), torch.as_tensor(hands))
+                                torch.as_tensor(np.stack(states), dtype=torch.float32), torch.as_tensor(hands),
+                                torch.as_tensor(anchors))
     return MatchedGoals(goal, np.array(indices), np.array(distances), np.array(seeds))
 
 
@@ -278,7 +286,8 @@ def scene_goal(table: dict, scene: int) -> runtime.KeyJointGoal:
     n = len(table["anchors"])
     if isinstance(scene, bool) or not isinstance(scene, (int, np.integer)) or not 0 <= scene < n:
         raise ValueError(f"scene: expected an index into the {n} scenes, got {scene!r}")
-    return runtime.KeyJointGoal(**{name: value[scene:scene + 1] for name, value in table["goal"].items()})
+    return runtime.KeyJointGoal(**{name: None if value is None else value[scene:scene + 1]
+                                   for name, value in table["goal"].items()})
 
 
 class _Joints:
@@ -310,7 +319,9 @@ def table4_runs(controller_config: network.ControllerConfig, *, clips: int = 12,
 
     Returns:
         ``{"rows": {row: {"Unsmth.", "Slid.", "FD", "EE RMSC", "planted clips", "per clip" {measure: (clips,)},
-        "reach" (clips,), "joints" [(T_i, 22, 3)]}}, "hands" (clips,), "anchors" (clips,), "matched rows",
+        "reach" (clips,), "joints" [(T_i, 22, 3)], and but for the Dataset row the rollout's "fed goal phase" and
+        "network goal phase" (steps, clips, C, 3) ``[S, A, F]`` (what each step fed the network, and its ``P̂_g``),
+        "deviation" (steps, clips) ``c`` of Eq. 22}}, "hands" (clips,), "anchors" (clips,), "matched rows",
         "matched seeds", "match distances", "test seeds" (clips,), "goal phase" (clips, C, 3) the matched one,
         "goal" the rows' planned goal (``controller.runtime.KeyJointGoal``'s fields; :func:`scene_goal`),
         "amplitude max", "planned" (clips,) bool (the planner found a path), "planning seconds", "seconds" (per
@@ -368,6 +379,9 @@ def table4_runs(controller_config: network.ControllerConfig, *, clips: int = 12,
             rows[row]["reach"] = np.array([np.linalg.norm(joints[:e + 1, b, WRIST_JOINTS[h]] - target[b], axis=-1).min()
                                            for b, (e, h) in enumerate(zip(ends, hands))])
             rows[row]["joints"] = [m.joints for m in motions]
+            rows[row]["fed goal phase"] = phase_state(run.goal_phase).double().numpy()
+            rows[row]["network goal phase"] = run.predicted_goal_phase.double().numpy()
+            rows[row]["deviation"] = run.deviation.double().numpy()
         dataset = [_Joints(c.joints[:e + 1].double().numpy(), FPS) for c, e in zip(test, ends)]
         rows["Dataset"] = measure(dataset)
         rows["Dataset"]["reach"] = np.array([np.linalg.norm(c.joints[:e + 1, WRIST_JOINTS[h]].double().numpy() - t,
