@@ -137,15 +137,14 @@ def main(argv=None):
             table[(f"seed {seed}", "pooled")] = evaluation.pooled_skeleton_medians([results[(seed, a, name)] for a in ACTIONS])
         every = [results[(seed, a, name)] for seed in args.seeds for a in ACTIONS]
         table[("all seeds", "pooled")] = evaluation.pooled_skeleton_medians(every)
-        table[("all seeds", "worst")] = {alpha: max(table[(f"seed {seed}", "pooled")][alpha] for seed in args.seeds)
-                                         for alpha in table[("all seeds", "pooled")]}
+        by_seed = {seed: [results[(seed, a, name)] for a in ACTIONS] for seed in args.seeds}
+        table[("all seeds", "worst")] = evaluation.worst_seed_skeleton_medians(by_seed)
         table = pd.DataFrame(table)
         table.index.name = "α"
         alphas = sorted(tried[name])
         chosen = {f"seed {seed}": evaluation.chosen_alpha([results[(seed, a, name)] for a in ACTIONS])
                   for seed in args.seeds}
-        worst = evaluation.chosen_alpha_over_seeds({seed: [results[(seed, a, name)] for a in ACTIONS]
-                                                    for seed in args.seeds})
+        worst = evaluation.chosen_alpha_over_seeds(by_seed)
         summary[name] = {**chosen, "worst seed": worst, "bracketed": alphas[0] < worst < alphas[-1],
                          "every seed pooled": evaluation.chosen_alpha(every), "library": library[name]}
         print(f"== {name}: median skeleton distance (m) of the kept sample")

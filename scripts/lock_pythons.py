@@ -30,6 +30,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from packaging.requirements import Requirement
+
 ROOT = Path(__file__).resolve().parents[1]
 PYTHONS = ("3.10", "3.11", "3.12", "3.13")
 # The wheel tags a manylinux x86_64 machine (Colab's) accepts, newest first: pip takes a target's tags only as given.
@@ -41,9 +43,7 @@ SOURCE_ONLY = ("scikit-fmm",)      # no wheels published: resolved on its own, i
 
 def requirement_name(line: str) -> str:
     """The distribution a requirements line names (``"scikit-fmm>=2023.4"`` -> ``"scikit-fmm"``), lower case."""
-    for stop in "<>=!~;[ ":
-        line = line.split(stop, 1)[0]
-    return line.strip().lower()
+    return Requirement(line).name.lower()
 
 
 def requirement_lines(path: Path) -> list[str]:

@@ -554,37 +554,32 @@ def test_guided_evaluation_defaults_to_its_variants_alpha_and_the_sweep_scores_t
         evaluation.guidance_alpha_sweep(dataset, model_config, field_config, config, n_samples=0)
 
 
-def test_chosen_alpha_is_the_lowest_pooled_median_skeleton_distance():
-    def sweep(distances):
-        scores = {alpha: scoring.MotionScores(*(np.zeros(len(d)) for _ in range(3)), np.asarray(d, float),
-                                              *(np.zeros(len(d)) for _ in range(5)))
-                  for alpha, d in distances.items()}
-        return evaluation.AlphaSweep(alphas=tuple(distances), scores=scores,
-                                     objective={a: np.zeros(len(d)) for a, d in distances.items()},
-                                     guide_last_step=False)
+def _skeleton_sweep(distances):
+    """An AlphaSweep whose kept samples have these skeleton distances: ``{α: [metres per condition]}``."""
+    scores = {alpha: scoring.MotionScores(*(np.zeros(len(d)) for _ in range(3)), np.asarray(d, float),
+                                          *(np.zeros(len(d)) for _ in range(5)))
+              for alpha, d in distances.items()}
+    return evaluation.AlphaSweep(alphas=tuple(distances), scores=scores,
+                                 objective={a: np.zeros(len(d)) for a, d in distances.items()},
+                                 guide_last_step=False)
 
-    sit = sweep({3.0: [1.0, 1.2, 1.4], 30.0: [0.5, 0.6, 2.0]})
-    lift = sweep({3.0: [1.0, 1.1, 1.3], 30.0: [2.0, 2.1, 2.2]})
+
+def test_chosen_alpha_is_the_lowest_pooled_median_skeleton_distance():
+    sit = _skeleton_sweep({3.0: [1.0, 1.2, 1.4], 30.0: [0.5, 0.6, 2.0]})
+    lift = _skeleton_sweep({3.0: [1.0, 1.1, 1.3], 30.0: [2.0, 2.1, 2.2]})
     assert evaluation.chosen_alpha([sit]) == 30.0  # sit alone: medians 1.2 and 0.6
     assert evaluation.chosen_alpha([sit, lift]) == 3.0  # pooled: medians 1.15 and 2.05
-    assert evaluation.chosen_alpha([sweep({3.0: [1.0, 1.0], 30.0: [1.0, 1.0]})]) == 3.0  # a tie: the smaller α
+    tie = _skeleton_sweep({3.0: [1.0, 1.0], 30.0: [1.0, 1.0]})
+    assert evaluation.chosen_alpha([tie]) == 3.0  # a tie: the smaller α
     with pytest.raises(ValueError, match="same alphas"):
-        evaluation.chosen_alpha([sit, sweep({10.0: [1.0]})])
+        evaluation.chosen_alpha([sit, _skeleton_sweep({10.0: [1.0]})])
 
 
 def test_chosen_alpha_over_seeds_takes_the_worst_seed():
-    def sweep(distances):
-        scores = {alpha: scoring.MotionScores(*(np.zeros(len(d)) for _ in range(3)), np.asarray(d, float),
-                                              *(np.zeros(len(d)) for _ in range(5)))
-                  for alpha, d in distances.items()}
-        return evaluation.AlphaSweep(alphas=tuple(distances), scores=scores,
-                                     objective={a: np.zeros(len(d)) for a, d in distances.items()},
-                                     guide_last_step=False)
-
     # As measured for the offset field: seeds 1 and 2 end nearer at α = 100, seed 0 falls apart there. Pooled, the
     # two carry the median to 100; by the worst seed, 30.
-    stable = sweep({30.0: [1.6, 1.6, 1.6], 100.0: [10.0, 10.1, 10.2]})
-    better = [sweep({30.0: [0.8, 0.8, 0.8], 100.0: [0.7, 0.7, 0.7]}) for _ in range(2)]
+    stable = _skeleton_sweep({30.0: [1.6, 1.6, 1.6], 100.0: [10.0, 10.1, 10.2]})
+    better = [_skeleton_sweep({30.0: [0.8, 0.8, 0.8], 100.0: [0.7, 0.7, 0.7]}) for _ in range(2)]
     assert evaluation.chosen_alpha([stable, *better]) == 100.0
     assert evaluation.chosen_alpha_over_seeds({0: [stable], 1: [better[0]], 2: [better[1]]}) == 30.0
     # One seed: the same as chosen_alpha, its sweeps pooled
@@ -592,7 +587,7 @@ def test_chosen_alpha_over_seeds_takes_the_worst_seed():
     with pytest.raises(ValueError, match="at least one seed"):
         evaluation.chosen_alpha_over_seeds({})
     with pytest.raises(ValueError, match="same alphas"):
-        evaluation.chosen_alpha_over_seeds({0: [stable], 1: [sweep({10.0: [1.0]})]})
+        evaluation.chosen_alpha_over_seeds({0: [stable], 1: [_skeleton_sweep({10.0: [1.0]})]})
 
 
 def test_the_start_distance_read_from_the_root_is_final_pelvis_distance_bit_for_bit():

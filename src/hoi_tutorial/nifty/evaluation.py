@@ -55,6 +55,7 @@ __all__ = [
     "build_alpha_sweep",
     "chosen_alpha",
     "chosen_alpha_over_seeds",
+    "worst_seed_skeleton_medians",
     "build_table1",
 ]
 
@@ -572,6 +573,17 @@ def chosen_alpha(sweeps: Sequence[AlphaSweep]) -> float:
     return min(pooled, key=lambda alpha: (pooled[alpha], alpha))
 
 
+def worst_seed_skeleton_medians(sweeps_by_seed: dict) -> dict:
+    """``{α: the largest over the seeds of each seed's median skeleton distance (m)}``, each seed's sweeps (e.g. sit
+    and lift) pooled by :func:`pooled_skeleton_medians`; ``sweeps_by_seed``: ``{seed: [AlphaSweep, ...]}``."""
+    if not sweeps_by_seed:
+        raise ValueError("sweeps_by_seed: expected at least one seed's sweeps")
+    per_seed = [pooled_skeleton_medians(sweeps) for sweeps in sweeps_by_seed.values()]
+    if any(set(medians) != set(per_seed[0]) for medians in per_seed):
+        raise ValueError("sweeps_by_seed: expected every seed's sweeps over the same alphas")
+    return {alpha: max(medians[alpha] for medians in per_seed) for alpha in per_seed[0]}
+
+
 def chosen_alpha_over_seeds(sweeps_by_seed: dict) -> float:
     """The α chosen over several seeds by the worst of them: for each α, each seed's median skeleton distance
     (its sweeps, e.g. sit and lift, pooled), the largest over the seeds; the α whose largest is lowest. Ties go
@@ -584,10 +596,5 @@ def chosen_alpha_over_seeds(sweeps_by_seed: dict) -> float:
     Args:
         sweeps_by_seed: ``{seed: [AlphaSweep, ...]}``, every sweep over the same alphas.
     """
-    if not sweeps_by_seed:
-        raise ValueError("sweeps_by_seed: expected at least one seed's sweeps")
-    per_seed = [pooled_skeleton_medians(sweeps) for sweeps in sweeps_by_seed.values()]
-    if any(set(medians) != set(per_seed[0]) for medians in per_seed):
-        raise ValueError("sweeps_by_seed: expected every seed's sweeps over the same alphas")
-    worst = {alpha: max(medians[alpha] for medians in per_seed) for alpha in per_seed[0]}
+    worst = worst_seed_skeleton_medians(sweeps_by_seed)
     return min(worst, key=lambda alpha: (worst[alpha], alpha))

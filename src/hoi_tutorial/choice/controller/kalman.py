@@ -150,7 +150,6 @@ class PhaseFilterConfig:
         if self.body_width is not None and not self.body_width > 0:
             raise ValueError(f"body_width: expected a positive number of metres or None, got {self.body_width!r}")
         check_numbers(self, ("rotation_weight",), at_least=0)
-        check_numbers(self, ("phase_blend",), at_least=0, at_most=1)
         check_numbers(self, ("body_width",), above=0, allow_none=True)
 
     @property

@@ -94,7 +94,6 @@ class ControllerConfig:
             raise ValueError(f"kinds: expected a tuple of distinct names from {CLIP_KINDS}, got {kinds!r}")
         check_numbers(self, ("lr", "blend_radius"), above=0)
         check_numbers(self, ("phase_noise", "key_noise"), at_least=0)
-        check_numbers(self, ("phase_dropout",), at_least=0, below=1)
         check_numbers(self, ("grad_clip",), above=0, allow_none=True)
 
 

@@ -135,7 +135,6 @@ class PlannerConfig:
         if not 0 <= self.near_share < 1:
             raise ValueError(f"near_share: expected a fraction in [0, 1), got {self.near_share!r}")
         check_numbers(self, ("code_sigma", "fit_lr", "init_std", "prior_radius", "max_time", "lr"), above=0)
-        check_numbers(self, ("near_share",), at_least=0, at_most=1)
         check_numbers(self, ("grad_clip",), above=0, allow_none=True)
 
 
